@@ -1,0 +1,2 @@
+//! Stereo rig calibration (work in progress: see issue 5).
+#![deny(missing_docs)]

@@ -1,0 +1,2 @@
+//! Camera model (work in progress).
+#![deny(missing_docs)]

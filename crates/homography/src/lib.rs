@@ -1,0 +1,2 @@
+//! Homography estimation (work in progress).
+#![deny(missing_docs)]

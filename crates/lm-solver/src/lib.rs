@@ -1,0 +1,2 @@
+//! Generic sparse Levenberg-Marquardt engine (work in progress: see issue 3).
+#![deny(missing_docs)]
