@@ -1,0 +1,144 @@
+//! Central finite differences, for checking analytic Jacobians.
+//!
+//! Every analytic Jacobian in the workspace is tested against [`central_difference`]. The step for
+//! parameter `j` is `relative_step * max(|x_j|, 1)`; the truncation error of a central difference is
+//! `O(h^2 f''')` and its rounding error about `eps |f| / h`, so a relative step near `1e-6` balances
+//! the two for functions whose values and parameters are of order one to a thousand.
+//!
+//! ```
+//! use lm_solver::numdiff::{central_difference, compare_jacobians};
+//! // f(x) = (x0 * x1, sin(x0))
+//! let f = |x: &[f64], out: &mut [f64]| {
+//!     out[0] = x[0] * x[1];
+//!     out[1] = x[0].sin();
+//! };
+//! let x = [0.3, 2.0];
+//! let numeric = central_difference(f, &x, 2, 1e-6);
+//! // analytic Jacobian, column-major (2 rows, 2 columns)
+//! let analytic = [x[1], x[0].cos(), x[0], 0.0];
+//! assert!(compare_jacobians(&analytic, &numeric, 2, 1e-8, 1e-10).is_ok());
+//! ```
+
+/// Central-difference Jacobian of `f: R^n -> R^m` at `x`.
+///
+/// `f(x, out)` writes the `m` function values into `out`. The result is column-major: entry
+/// `(i, j)` (derivative of output `i` with respect to input `j`) is at index `i + j * m`.
+/// Step for input `j`: `relative_step * max(|x_j|, 1)`.
+///
+/// Cost: `2n` evaluations of `f`. Allocates; meant for tests and diagnostics, not hot loops.
+pub fn central_difference<F>(mut f: F, x: &[f64], m: usize, relative_step: f64) -> Vec<f64>
+where
+    F: FnMut(&[f64], &mut [f64]),
+{
+    let n = x.len();
+    let mut jac = vec![0.0; m * n];
+    let mut xp = x.to_vec();
+    let mut plus = vec![0.0; m];
+    let mut minus = vec![0.0; m];
+    for j in 0..n {
+        let h = relative_step * x[j].abs().max(1.0);
+        xp[j] = x[j] + h;
+        f(&xp, &mut plus);
+        xp[j] = x[j] - h;
+        f(&xp, &mut minus);
+        xp[j] = x[j];
+        // Use the actually representable step so that h's rounding does not bias the quotient.
+        let two_h = (x[j] + h) - (x[j] - h);
+        for i in 0..m {
+            jac[i + j * m] = (plus[i] - minus[i]) / two_h;
+        }
+    }
+    jac
+}
+
+/// The largest mismatch found by [`compare_jacobians`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct JacobianMismatch {
+    /// Row (output index) of the worst entry.
+    pub row: usize,
+    /// Column (input index) of the worst entry.
+    pub col: usize,
+    /// The analytic value.
+    pub analytic: f64,
+    /// The finite-difference value.
+    pub numeric: f64,
+    /// `|analytic - numeric| / (|numeric| + absolute_scale)`.
+    pub relative_error: f64,
+}
+
+impl std::fmt::Display for JacobianMismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Jacobian entry ({}, {}): analytic {:e}, numeric {:e}, relative error {:e}",
+            self.row, self.col, self.analytic, self.numeric, self.relative_error
+        )
+    }
+}
+
+/// Compares two column-major `m`-row Jacobians entry by entry.
+///
+/// An entry passes when `|a - n| <= relative_tolerance * (|n| + absolute_scale)`. The absolute scale
+/// keeps entries that are zero (or cancel to nearly zero) from demanding an impossible relative
+/// accuracy: pass the typical magnitude of the row's entries times the expected finite-difference
+/// noise ratio, or simply a small number in the units of the Jacobian.
+///
+/// Returns the worst entry as an error if any entry fails, or if the lengths differ or any value
+/// is not finite.
+pub fn compare_jacobians(
+    analytic: &[f64],
+    numeric: &[f64],
+    m: usize,
+    relative_tolerance: f64,
+    absolute_scale: f64,
+) -> Result<(), JacobianMismatch> {
+    let mut worst: Option<JacobianMismatch> = None;
+    let mut failed = analytic.len() != numeric.len();
+    for (k, (&a, &n)) in analytic.iter().zip(numeric).enumerate() {
+        let rel = (a - n).abs() / (n.abs() + absolute_scale);
+        let bad = !a.is_finite() || !n.is_finite() || rel > relative_tolerance;
+        failed |= bad;
+        let rel = if rel.is_finite() { rel } else { f64::INFINITY };
+        if worst.as_ref().is_none_or(|w| rel > w.relative_error) {
+            worst = Some(JacobianMismatch {
+                row: k % m.max(1),
+                col: k / m.max(1),
+                analytic: a,
+                numeric: n,
+                relative_error: rel,
+            });
+        }
+    }
+    match (failed, worst) {
+        (false, _) => Ok(()),
+        (true, Some(w)) => Err(w),
+        (true, None) => Err(JacobianMismatch {
+            row: 0,
+            col: 0,
+            analytic: f64::NAN,
+            numeric: f64::NAN,
+            relative_error: f64::INFINITY,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn detects_a_wrong_derivative() {
+        let f = |x: &[f64], out: &mut [f64]| out[0] = x[0] * x[0];
+        let numeric = central_difference(f, &[3.0], 1, 1e-6);
+        assert!(compare_jacobians(&[6.0], &numeric, 1, 1e-8, 1e-12).is_ok());
+        let err = compare_jacobians(&[6.1], &numeric, 1, 1e-8, 1e-12).unwrap_err();
+        assert_eq!((err.row, err.col), (0, 0));
+        assert!(err.relative_error > 0.01);
+    }
+
+    #[test]
+    fn rejects_non_finite_and_length_mismatch() {
+        assert!(compare_jacobians(&[f64::NAN], &[1.0], 1, 1.0, 1.0).is_err());
+        assert!(compare_jacobians(&[1.0, 2.0], &[1.0], 1, 1.0, 1.0).is_err());
+    }
+}
