@@ -26,7 +26,18 @@
 /// Step for input `j`: `relative_step * max(|x_j|, 1)`.
 ///
 /// Cost: `2n` evaluations of `f`. Allocates; meant for tests and diagnostics, not hot loops.
-pub fn central_difference<F>(mut f: F, x: &[f64], m: usize, relative_step: f64) -> Vec<f64>
+pub fn central_difference<F>(f: F, x: &[f64], m: usize, relative_step: f64) -> Vec<f64>
+where
+    F: FnMut(&[f64], &mut [f64]),
+{
+    let steps: Vec<f64> = x.iter().map(|v| relative_step * v.abs().max(1.0)).collect();
+    central_difference_with_steps(f, x, m, &steps)
+}
+
+/// Central-difference Jacobian with an explicit step per input, for inputs whose natural scales
+/// differ by orders of magnitude (such as the entries of a homography). Same layout and cost as
+/// [`central_difference`].
+pub fn central_difference_with_steps<F>(mut f: F, x: &[f64], m: usize, steps: &[f64]) -> Vec<f64>
 where
     F: FnMut(&[f64], &mut [f64]),
 {
@@ -36,7 +47,7 @@ where
     let mut plus = vec![0.0; m];
     let mut minus = vec![0.0; m];
     for j in 0..n {
-        let h = relative_step * x[j].abs().max(1.0);
+        let h = steps[j];
         xp[j] = x[j] + h;
         f(&xp, &mut plus);
         xp[j] = x[j] - h;
