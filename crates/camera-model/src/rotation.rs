@@ -302,10 +302,12 @@ mod tests {
         };
         let numeric = central_difference(f, p.as_slice(), 9, 1e-6);
         let analytic: Vec<f64> = d.iter().flat_map(|m| m.as_slice().to_vec()).collect();
-        // Entries of R are bounded by 1 and the third derivatives by a few units, so the central
-        // difference (h = 1e-6) is accurate to ~1e-12 truncation plus ~1e-10 rounding; 1e-7 leaves
-        // a wide margin while still catching any wrong sign or term.
-        compare_jacobians(&analytic, &numeric, 9, 1e-7, 1e-3).map_err(|e| e.to_string())
+        // Entries of R are bounded by 1 and are computed to a few ulps (~1e-15); the central
+        // difference divides that rounding by 2h = 2e-6 max(|p|, 1), giving up to ~5e-10, while
+        // truncation (h^2 |R'''| / 6 with |R'''| of order one) is ~1e-12. The tolerance
+        // 1e-6 (|numeric| + 1e-3), at least 1e-9, is twice the worst noise; a wrong sign or a
+        // missing term is off by 1e-2 or more.
+        compare_jacobians(&analytic, &numeric, 9, 1e-6, 1e-3).map_err(|e| e.to_string())
     }
 
     fn is_rotation(r: &Matrix3<f64>) -> bool {

@@ -139,7 +139,7 @@ mod tests {
     use crate::intrinsics::Intrinsics;
     use proptest::prelude::*;
 
-    /// Largest normalized radius inside a `width x height` image with the given intrinsics.
+    /// Largest distorted normalized radius inside a `width x height` image.
     fn max_image_radius(c: &Intrinsics, width: f64, height: f64) -> f64 {
         let corners = [
             (0.0, 0.0),
@@ -153,29 +153,43 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
-    /// True when the radial part `r (1 + k1 r^2 + k2 r^4)` keeps increasing up to `r_max`
-    /// (a margin of 20% is kept): the region where a real lens model is invertible.
-    fn radially_monotonic(d: &BrownConrady, r_max: f64) -> bool {
-        (0..=200).all(|i| {
-            let r = 1.2 * r_max * i as f64 / 200.0;
+    /// True when every distorted radius up to `r_distorted_max` has a preimage on the branch of
+    /// `f(r) = r (1 + k1 r^2 + k2 r^4)` that starts at the centre and is still clearly increasing
+    /// (`f' > 0.2`), with 5% to spare: the region where a real lens model is invertible. Beyond it
+    /// (for strong barrel distortion the image corners can lie there) undistortion must fail.
+    fn invertible_over(d: &BrownConrady, r_distorted_max: f64) -> bool {
+        let mut r = 0.0;
+        while r < 3.0 {
             let r2 = r * r;
-            1.0 + 3.0 * d.k1 * r2 + 5.0 * d.k2 * r2 * r2 > 0.2
-        })
+            if 1.0 + 3.0 * d.k1 * r2 + 5.0 * d.k2 * r2 * r2 <= 0.2 {
+                return false;
+            }
+            if r * (1.0 + d.k1 * r2 + d.k2 * r2 * r2) >= 1.05 * r_distorted_max {
+                return true;
+            }
+            r += 1e-3;
+        }
+        false
     }
 
     proptest! {
+        // Some sampled lenses fold back inside the image and are skipped; allow for that.
+        #![proptest_config(ProptestConfig { max_global_rejects: 1_000_000, ..ProptestConfig::default() })]
+
         /// Project an undistorted point, undistort the pixel, project again: the two pixels agree
-        /// to 1e-9 px everywhere in the image for realistic distortion.
+        /// to 1e-9 px everywhere in the image for realistic distortion. Focal lengths of 600 px and
+        /// more on a 1280 px wide image cover fields of view up to ~95 degrees, the range of the
+        /// Brown-Conrady model (wider lenses need a fisheye model).
         #[test]
         fn undistort_round_trips_over_the_image(
-            fx in 300.0f64..1500.0, aspect in 0.9f64..1.1,
+            fx in 600.0f64..1500.0, aspect in 0.9f64..1.1,
             k1 in -0.4f64..0.4, k2 in -0.3f64..0.3, p1 in -0.005f64..0.005, p2 in -0.005f64..0.005,
             u in 0.0f64..1.0, v in 0.0f64..1.0,
         ) {
             let (w, h) = (1280.0, 960.0);
             let intrinsics = Intrinsics::new(fx, fx * aspect, (w - 1.0) / 2.0, (h - 1.0) / 2.0);
             let distortion = BrownConrady::new(k1, k2, p1, p2);
-            prop_assume!(radially_monotonic(&distortion, max_image_radius(&intrinsics, w, h)));
+            prop_assume!(invertible_over(&distortion, max_image_radius(&intrinsics, w, h)));
             let camera = Camera::new(intrinsics, distortion);
             let pixel = Vector2::new(u * (w - 1.0), v * (h - 1.0));
             let n = camera.undistort_pixel(&pixel, &UndistortOptions::default()).unwrap();

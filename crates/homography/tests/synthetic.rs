@@ -67,7 +67,7 @@ fn noisy_views_reach_the_noise_floor() {
         let (_, object, clean) = random_view(&mut rng);
         let image: Vec<_> = clean
             .iter()
-            .map(|p| Point2::new(p.x + SIGMA * rng.gaussian(), p.y + SIGMA * rng.gaussian()))
+            .map(|p| Point2::new(p.x + SIGMA * rng.normal(), p.y + SIGMA * rng.normal()))
             .collect();
         n_points = object.len();
 

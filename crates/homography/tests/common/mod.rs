@@ -1,43 +1,10 @@
-//! Helpers shared by the integration tests: a deterministic PRNG with Gaussian samples,
-//! synthetic camera views of a planar board, and a minimal reader for the real data file.
+//! Helpers shared by the integration tests: the workspace's deterministic PRNG, synthetic
+//! camera views of a planar board, and a minimal reader for the real data file.
 #![allow(dead_code)] // each test binary uses a different subset
 
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 
-/// SplitMix64: tiny, deterministic, good enough statistical quality for test noise.
-pub struct Rng {
-    state: u64,
-}
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Self { state: seed }
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)` with 53 random bits.
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.uniform()
-    }
-
-    /// Standard normal sample (Box-Muller; the second value is discarded for simplicity).
-    pub fn gaussian(&mut self) -> f64 {
-        let u1 = 1.0 - self.uniform(); // in (0, 1], so ln is finite
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
+pub use lm_solver::test_problems::Rng;
 
 /// Intrinsic matrix with zero skew.
 pub fn intrinsics(fx: f64, fy: f64, cx: f64, cy: f64) -> Matrix3<f64> {

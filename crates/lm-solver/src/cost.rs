@@ -1,0 +1,86 @@
+//! The evaluation callback: how users supply residuals and analytic Jacobians.
+
+use crate::problem::ResidualBlockId;
+
+/// A failure reported by a cost function, for example a point that moved behind a camera.
+///
+/// At the initial parameters this aborts the solve with an error; at a trial point of the
+/// Levenberg-Marquardt iteration it only rejects the step.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{message}")]
+pub struct EvaluationError {
+    /// What went wrong, in words.
+    pub message: String,
+}
+
+impl EvaluationError {
+    /// An error with a message.
+    pub fn new(message: impl Into<String>) -> Self {
+        Self {
+            message: message.into(),
+        }
+    }
+}
+
+/// The Jacobian blocks of one residual block, to be filled by [`CostFunction::evaluate`].
+///
+/// Block `k` (the `k`-th parameter block the residual depends on, in the order given to
+/// [`ProblemBuilder::add_residual_block`](crate::ProblemBuilder::add_residual_block)) is a
+/// column-major `rows x dim_k` matrix: entry `(i, j)`, the derivative of residual `i` with respect
+/// to component `j` of the block, is at index `i + j * rows`.
+///
+/// The buffer is reused between residual blocks and is not cleared: every entry of every block
+/// for which [`JacobianBlocks::block_mut`] returns `Some` must be written, zeros included.
+pub struct JacobianBlocks<'a> {
+    pub(crate) buffer: &'a mut [f64],
+    pub(crate) rows: usize,
+    /// (first column, dim) per parameter block; `usize::MAX` column for constant blocks.
+    pub(crate) layout: &'a [(usize, usize)],
+}
+
+impl JacobianBlocks<'_> {
+    /// Number of residuals (rows of every block).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// The block for the `k`-th parameter block, or `None` if that block is constant (its
+    /// Jacobian is not needed).
+    #[inline]
+    pub fn block_mut(&mut self, k: usize) -> Option<&mut [f64]> {
+        let (col, dim) = self.layout[k];
+        if col == usize::MAX {
+            return None;
+        }
+        Some(&mut self.buffer[col * self.rows..(col + dim) * self.rows])
+    }
+
+    /// True if the `k`-th parameter block's Jacobian is wanted.
+    #[inline]
+    pub fn wants(&self, k: usize) -> bool {
+        self.layout[k].0 != usize::MAX
+    }
+}
+
+/// Residuals and analytic Jacobians of every residual block of a problem.
+///
+/// The solver calls `evaluate` for each residual block, possibly from several threads at once
+/// (hence `Sync`), always with the values of the blocks that residual depends on.
+pub trait CostFunction: Sync {
+    /// Evaluates residual block `block`.
+    ///
+    /// * `params[k]` holds the current values of the `k`-th parameter block of this residual.
+    /// * `residuals` (length = the block's dimension) receives the residuals.
+    /// * `jacobians`, when present, receives the Jacobian blocks (see [`JacobianBlocks`]). It is
+    ///   absent when only the cost is needed (trial points).
+    ///
+    /// Returning an error marks the parameters as invalid (for example a point behind a camera).
+    /// Non-finite residuals or Jacobians are treated the same way.
+    fn evaluate(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError>;
+}

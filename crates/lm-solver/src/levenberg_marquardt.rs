@@ -1,0 +1,476 @@
+//! The Levenberg-Marquardt loop.
+//!
+//! Each iteration solves `(J^T J + lambda D) step = -J^T r` for the step, evaluates the cost at
+//! `x + step`, and accepts or rejects the step. A rejected step is retried with more damping from
+//! the same linearization (the Jacobian is not re-evaluated). See `docs/lm-solver.md` for the
+//! damping policies and the termination rules.
+
+use crate::cost::CostFunction;
+use crate::linear_solver::{LinearSolver, LinearSolverKind};
+use crate::normal_equations::{EvaluationFailure, NormalEquations};
+use crate::problem::Problem;
+use crate::report::{IterationRecord, SolverReport, Termination};
+use std::time::{Duration, Instant};
+
+/// How the damping `lambda` and the damping matrix `D` evolve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DampingPolicy {
+    /// The calibration text's policy: `D = I` (additive `lambda I`), `lambda` starts at `initial`
+    /// (0.01 in the text), is divided by `factor` (10) after a step that lowers the cost, and is
+    /// multiplied by `factor` after one that does not, the step being recomputed from the same
+    /// linearization.
+    Additive {
+        /// Initial `lambda`.
+        initial: f64,
+        /// Multiplicative update factor.
+        factor: f64,
+    },
+    /// Marquardt scaling with Nielsen's update, as in Ceres' Levenberg-Marquardt: `D` is the
+    /// diagonal of `J^T J` clamped to `[min_diagonal, max_diagonal]`; a step is accepted when the
+    /// gain ratio (actual over predicted reduction) exceeds `min_gain_ratio`; then
+    /// `lambda *= max(1/3, 1 - (2 rho - 1)^3)`, otherwise `lambda *= nu` and `nu` doubles (`nu`
+    /// resets to 2 on acceptance).
+    Marquardt {
+        /// Initial `lambda` (Ceres' default trust-region radius 1e4 corresponds to 1e-4).
+        initial: f64,
+        /// Lower clamp of the diagonal scaling.
+        min_diagonal: f64,
+        /// Upper clamp of the diagonal scaling.
+        max_diagonal: f64,
+        /// Minimum gain ratio for accepting a step.
+        min_gain_ratio: f64,
+    },
+}
+
+impl DampingPolicy {
+    /// The calibration text's additive policy with its constants (`lambda0 = 0.01`, factor 10).
+    pub const fn additive() -> Self {
+        DampingPolicy::Additive {
+            initial: 0.01,
+            factor: 10.0,
+        }
+    }
+
+    /// The Ceres-style policy with Ceres' default constants.
+    pub const fn marquardt() -> Self {
+        DampingPolicy::Marquardt {
+            initial: 1e-4,
+            min_diagonal: 1e-6,
+            max_diagonal: 1e32,
+            min_gain_ratio: 1e-3,
+        }
+    }
+
+    fn initial_lambda(&self) -> f64 {
+        match *self {
+            DampingPolicy::Additive { initial, .. } | DampingPolicy::Marquardt { initial, .. } => {
+                initial
+            }
+        }
+    }
+}
+
+impl Default for DampingPolicy {
+    /// The additive policy: on the calibration benchmarks it reaches the minimum in no more
+    /// evaluations than the Marquardt policy (numbers in `docs/lm-solver.md`).
+    fn default() -> Self {
+        DampingPolicy::additive()
+    }
+}
+
+/// Settings of a solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverOptions {
+    /// Maximum number of step attempts (accepted or rejected). Default 200.
+    pub max_iterations: usize,
+    /// Converged when `max |g_i| <= gradient_tolerance` (gradient of the cost `0.5 |r|^2`, in
+    /// cost units per parameter unit). Default 1e-10.
+    pub gradient_tolerance: f64,
+    /// Converged when an accepted step lowers the cost by less than `function_tolerance * cost`,
+    /// or when the linear model predicts less than that for a step that was rejected. Default
+    /// 1e-12.
+    pub function_tolerance: f64,
+    /// Converged when `|step| <= parameter_tolerance * (|x| + parameter_tolerance)`. Default 1e-12.
+    pub parameter_tolerance: f64,
+    /// Damping policy. Default [`DampingPolicy::additive`].
+    pub damping: DampingPolicy,
+    /// Stop (`DampingExhausted`) when `lambda` exceeds this. Default 1e16.
+    pub max_lambda: f64,
+    /// Smallest `lambda` used. Default 1e-16.
+    pub min_lambda: f64,
+    /// Linear solver. Default `Auto`.
+    pub linear_solver: LinearSolverKind,
+    /// Threads for evaluation and elimination: 1 runs on the calling thread, 0 uses all available
+    /// cores, `n` uses `n`. Results are bit-for-bit identical for any value. Default 0.
+    pub num_threads: usize,
+    /// Target size of one parallel work chunk, in residual rows times Jacobian columns (default
+    /// 150 000, about 20 calibration views of 400 points). The chunking depends only on the
+    /// problem and this value, never on the thread count, which is what makes results
+    /// independent of the number of threads.
+    pub chunk_work: usize,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            max_iterations: 200,
+            gradient_tolerance: 1e-10,
+            function_tolerance: 1e-12,
+            parameter_tolerance: 1e-12,
+            damping: DampingPolicy::default(),
+            max_lambda: 1e16,
+            min_lambda: 1e-16,
+            linear_solver: LinearSolverKind::Auto,
+            num_threads: 0,
+            chunk_work: 150_000,
+        }
+    }
+}
+
+/// Errors of a solve: problems with the inputs or the setup, never with convergence (that is
+/// reported in [`SolverReport::termination`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolverError {
+    /// The parameter vector has the wrong length.
+    #[error("parameter vector has {found} entries, the problem has {expected}")]
+    ParameterLength {
+        /// Expected length.
+        expected: usize,
+        /// Given length.
+        found: usize,
+    },
+    /// An initial parameter is NaN or infinite.
+    #[error("initial parameter {index} is not finite")]
+    NonFiniteParameter {
+        /// Index in the flat parameter vector.
+        index: usize,
+    },
+    /// The cost function failed at the initial parameters.
+    #[error("residual block {residual} cannot be evaluated at the initial parameters: {message}")]
+    InitialEvaluation {
+        /// The failing residual block.
+        residual: usize,
+        /// What went wrong.
+        message: String,
+    },
+    /// The linear solver could not be prepared (index overflow or out of memory in the symbolic
+    /// analysis).
+    #[error("linear solver setup failed: {0}")]
+    LinearSolverSetup(String),
+    /// The thread pool could not be created.
+    #[error("thread pool setup failed: {0}")]
+    ThreadPool(String),
+}
+
+pub(crate) fn describe(failure: &EvaluationFailure) -> (usize, String) {
+    match failure {
+        EvaluationFailure::Error { residual, error } => (*residual, error.message.clone()),
+        EvaluationFailure::NonFinite { residual } => (
+            *residual,
+            "non-finite residual or Jacobian entry".to_string(),
+        ),
+    }
+}
+
+/// A Levenberg-Marquardt solver prepared for one problem structure.
+///
+/// Construction does all the structural work once (chunking, storage for the normal equations,
+/// symbolic factorization, thread pool); [`Solver::solve`] then runs without allocating per
+/// iteration (apart from appending the iteration records).
+pub struct Solver {
+    pub(crate) problem: Problem,
+    options: SolverOptions,
+    pub(crate) ne: NormalEquations,
+    linear: LinearSolver,
+    pub(crate) pool: Option<rayon::ThreadPool>,
+    step: Vec<f64>,
+    trial: Vec<f64>,
+    damping: Vec<f64>,
+    diagonal: Vec<f64>,
+}
+
+impl std::fmt::Debug for Solver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Solver")
+            .field("problem", &self.problem)
+            .field("options", &self.options)
+            .field("linear_solver", &self.linear.kind())
+            .field("chunks", &self.ne.chunks.len())
+            .finish()
+    }
+}
+
+impl Solver {
+    /// Prepares a solver for `problem`.
+    pub fn new(problem: Problem, options: SolverOptions) -> Result<Self, SolverError> {
+        let mut ne = NormalEquations::new(&problem, options.chunk_work);
+        let linear = LinearSolver::new(options.linear_solver, &problem, &mut ne)
+            .map_err(|e| SolverError::LinearSolverSetup(e.0))?;
+        let threads = match options.num_threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        };
+        let pool = if threads > 1 && ne.chunks.len() > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| SolverError::ThreadPool(e.to_string()))?,
+            )
+        } else {
+            None
+        };
+        let n = problem.num_parameters;
+        Ok(Self {
+            problem,
+            options,
+            ne,
+            linear,
+            pool,
+            step: vec![0.0; n],
+            trial: vec![0.0; n],
+            damping: vec![0.0; n],
+            diagonal: vec![0.0; n],
+        })
+    }
+
+    /// The problem structure.
+    pub fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    /// The options.
+    pub fn options(&self) -> &SolverOptions {
+        &self.options
+    }
+
+    /// The linear solver in use (`Auto` resolved).
+    pub fn linear_solver(&self) -> LinearSolverKind {
+        self.linear.kind()
+    }
+
+    /// Number of evaluation chunks (the unit of parallel work).
+    pub fn num_chunks(&self) -> usize {
+        self.ne.chunks.len()
+    }
+
+    /// Minimizes the cost starting from `x`, which receives the solution.
+    pub fn solve<C: CostFunction>(
+        &mut self,
+        cost_fn: &C,
+        x: &mut [f64],
+    ) -> Result<SolverReport, SolverError> {
+        self.solve_with_observer(cost_fn, x, |_| {})
+    }
+
+    /// Like [`Solver::solve`], calling `observer` after every step attempt (for logging).
+    pub fn solve_with_observer<C: CostFunction, O: FnMut(&IterationRecord)>(
+        &mut self,
+        cost_fn: &C,
+        x: &mut [f64],
+        mut observer: O,
+    ) -> Result<SolverReport, SolverError> {
+        let start = Instant::now();
+        let problem = &self.problem;
+        let options = &self.options;
+        if x.len() != problem.num_parameters {
+            return Err(SolverError::ParameterLength {
+                expected: problem.num_parameters,
+                found: x.len(),
+            });
+        }
+        if let Some(index) = x.iter().position(|v| !v.is_finite()) {
+            return Err(SolverError::NonFiniteParameter { index });
+        }
+        let pool = self.pool.as_ref();
+        let t = Instant::now();
+        self.ne
+            .evaluate(problem, cost_fn, x, true, pool)
+            .map_err(|f| {
+                let (residual, message) = describe(&f);
+                SolverError::InitialEvaluation { residual, message }
+            })?;
+        let mut evaluate_time = t.elapsed();
+        let mut solve_time = Duration::ZERO;
+        let mut cost = self.ne.cost;
+        let initial_cost = cost;
+        let mut iterations = Vec::with_capacity(options.max_iterations.min(1024));
+        let (mut residual_evaluations, mut jacobian_evaluations, mut linear_solves) = (0, 1, 0);
+        let mut accepted_steps = 0;
+        let mut lambda = options.damping.initial_lambda();
+        let mut nu = 2.0;
+        let mut diagonal_stale = true;
+
+        let termination = loop {
+            let gradient_max_norm = self.ne.gradient_max_norm();
+            if !gradient_max_norm.is_finite() {
+                break Termination::NumericalFailure("non-finite gradient".into());
+            }
+            if gradient_max_norm <= options.gradient_tolerance {
+                break Termination::GradientTolerance;
+            }
+            if iterations.len() >= options.max_iterations {
+                break Termination::MaxIterations;
+            }
+            if let DampingPolicy::Marquardt {
+                min_diagonal,
+                max_diagonal,
+                ..
+            } = options.damping
+                && diagonal_stale
+            {
+                self.ne.hessian_diagonal(problem, &mut self.diagonal);
+                for d in &mut self.diagonal {
+                    *d = d.clamp(min_diagonal, max_diagonal);
+                }
+                diagonal_stale = false;
+            }
+            for (i, d) in self.damping.iter_mut().enumerate() {
+                *d = if problem.fixed_mask[i] {
+                    1.0
+                } else if matches!(options.damping, DampingPolicy::Additive { .. }) {
+                    lambda
+                } else {
+                    lambda * self.diagonal[i]
+                };
+            }
+
+            let ts = Instant::now();
+            let solved =
+                self.linear
+                    .solve(problem, &mut self.ne, &self.damping, &mut self.step, pool);
+            let this_solve = ts.elapsed();
+            solve_time += this_solve;
+            linear_solves += 1;
+            let mut record = IterationRecord {
+                iteration: iterations.len() + 1,
+                cost,
+                trial_cost: f64::INFINITY,
+                gradient_max_norm,
+                step_norm: 0.0,
+                gain_ratio: f64::NAN,
+                lambda,
+                accepted: false,
+                solve_succeeded: solved.is_ok(),
+                evaluate_time: Duration::ZERO,
+                solve_time: this_solve,
+            };
+
+            let mut accepted = false;
+            let mut converged = None;
+            if solved.is_ok() {
+                let step_norm = self.step.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let x_norm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+                record.step_norm = step_norm;
+                if step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance)
+                {
+                    iterations.push(record.clone());
+                    observer(&record);
+                    break Termination::ParameterTolerance;
+                }
+                for ((t, a), b) in self.trial.iter_mut().zip(x.iter()).zip(&self.step) {
+                    *t = a + b;
+                }
+                let te = Instant::now();
+                let trial_cost = self
+                    .ne
+                    .evaluate(problem, cost_fn, &self.trial, false, pool)
+                    .unwrap_or(f64::INFINITY);
+                residual_evaluations += 1;
+                record.trial_cost = trial_cost;
+                // Model decrease: -g.step - 0.5 step^T H step = 0.5 (-g.step + step^T D step),
+                // using (H + D) step = -g.
+                let predicted = 0.5
+                    * self
+                        .step
+                        .iter()
+                        .zip(&self.ne.g)
+                        .zip(&self.damping)
+                        .map(|((s, g), d)| -g * s + d * s * s)
+                        .sum::<f64>();
+                let actual = cost - trial_cost;
+                let gain = actual / predicted;
+                record.gain_ratio = gain;
+                accepted = trial_cost.is_finite()
+                    && match options.damping {
+                        DampingPolicy::Additive { .. } => trial_cost < cost,
+                        DampingPolicy::Marquardt { min_gain_ratio, .. } => gain > min_gain_ratio,
+                    };
+                if accepted {
+                    x.copy_from_slice(&self.trial);
+                    let previous = cost;
+                    match self.ne.evaluate(problem, cost_fn, x, true, pool) {
+                        Ok(_) => {}
+                        Err(f) => {
+                            let (residual, message) = describe(&f);
+                            record.evaluate_time = te.elapsed();
+                            evaluate_time += record.evaluate_time;
+                            iterations.push(record.clone());
+                            observer(&record);
+                            break Termination::NumericalFailure(format!(
+                                "linearization failed at an accepted point (residual block {residual}: {message})"
+                            ));
+                        }
+                    }
+                    jacobian_evaluations += 1;
+                    accepted_steps += 1;
+                    cost = self.ne.cost;
+                    diagonal_stale = true;
+                    match options.damping {
+                        DampingPolicy::Additive { factor, .. } => lambda /= factor,
+                        DampingPolicy::Marquardt { .. } => {
+                            lambda *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0);
+                            nu = 2.0;
+                        }
+                    }
+                    lambda = lambda.max(options.min_lambda);
+                    if previous - cost <= options.function_tolerance * previous {
+                        converged = Some(Termination::FunctionTolerance);
+                    }
+                } else if predicted.is_finite() && predicted <= options.function_tolerance * cost {
+                    // The model itself promises less than the tolerance: the step was lost to
+                    // rounding at the minimum, not to a poor model.
+                    converged = Some(Termination::FunctionTolerance);
+                }
+                record.evaluate_time = te.elapsed();
+                evaluate_time += record.evaluate_time;
+            }
+            if !accepted {
+                match options.damping {
+                    DampingPolicy::Additive { factor, .. } => lambda *= factor,
+                    DampingPolicy::Marquardt { .. } => {
+                        lambda *= nu;
+                        nu *= 2.0;
+                    }
+                }
+            }
+            record.accepted = accepted;
+            record.cost = cost;
+            iterations.push(record.clone());
+            observer(&record);
+            if let Some(termination) = converged {
+                break termination;
+            }
+            if !accepted && lambda > options.max_lambda {
+                break Termination::DampingExhausted;
+            }
+        };
+
+        Ok(SolverReport {
+            termination,
+            initial_cost,
+            final_cost: cost,
+            iterations,
+            accepted_steps,
+            residual_evaluations,
+            jacobian_evaluations,
+            linear_solves,
+            linear_solver: self.linear.kind(),
+            num_residuals: problem.num_residuals,
+            num_free_parameters: problem.num_free,
+            evaluate_time,
+            solve_time,
+            total_time: start.elapsed(),
+        })
+    }
+}

@@ -1,0 +1,179 @@
+//! Schur complement elimination of the block-diagonal part `V` of the normal equations.
+//!
+//! With the damped system written as
+//!
+//! ```text
+//! [ U   W ] [dr]   [-g_r]
+//! [ W^T V ] [de] = [-g_e]
+//! ```
+//!
+//! and `V = diag(V_e)`, each `V_e = L_e L_e^T` is factorized on its own (a small dense Cholesky),
+//! `Y_e = W_e L_e^-T` and `z_e = L_e^-1 g_e` are formed, and the reduced system is
+//!
+//! ```text
+//! S dr = rhs,   S = U - sum_e Y_e Y_e^T,   rhs = -g_r + sum_e Y_e z_e,
+//! ```
+//!
+//! after which each eliminated step follows from `de = -L_e^-T (z_e + Y_e^T dr)`. All per-block
+//! work is independent and runs in parallel over the evaluation chunks.
+//!
+//! Cost per eliminated block of dimension `d` coupled to `k` reduced parameters: `d^3/6` for the
+//! factorization, `k d^2 / 2` for `Y_e`, `k^2 d / 2` for the Schur update.
+
+use crate::kernels::{backward_substitute_transpose, cholesky_in_place, forward_substitute};
+use crate::normal_equations::{Chunk, NormalEquations};
+use crate::problem::Problem;
+use rayon::prelude::*;
+
+/// Sizes the per-chunk scratch the elimination needs (done once).
+pub(crate) fn prepare_chunks(ne: &mut NormalEquations, dense_reduced_dim: Option<usize>) {
+    for chunk in &mut ne.chunks {
+        chunk.factor = vec![0.0; chunk.v.len()];
+        chunk.y = vec![0.0; chunk.w.len()];
+        chunk.z = vec![0.0; chunk.ge.len()];
+        if let Some(n) = dense_reduced_dim {
+            chunk.s_partial = vec![0.0; n * n];
+            chunk.rhs_partial = vec![0.0; n];
+        }
+    }
+}
+
+/// Factorizes the damped `V_e` of every eliminated block of a chunk and forms `Y_e`, `z_e`.
+/// With `dense_partial`, also accumulates `-Y_e Y_e^T` and `Y_e z_e` into the chunk's dense
+/// partial Schur complement and right-hand side (reduced layout, `n x n`).
+///
+/// Sets `chunk.solve_failed` if some damped `V_e` is not positive definite.
+pub(crate) fn eliminate_chunk(
+    problem: &Problem,
+    chunk: &mut Chunk,
+    damping: &[f64],
+    dense_partial: bool,
+) {
+    chunk.solve_failed = false;
+    let n = problem.reduced_dim;
+    if dense_partial {
+        chunk.s_partial.fill(0.0);
+        chunk.rhs_partial.fill(0.0);
+    }
+    for (local, e) in chunk.elim.clone().enumerate() {
+        let layout = &problem.eliminated[e];
+        let d = layout.dim;
+        let rows = layout.w_rows;
+        let base = problem.offsets[layout.block];
+        let (vo, wo, go) = (chunk.v_off[local], chunk.w_off[local], chunk.g_off[local]);
+
+        let factor = &mut chunk.factor[vo..vo + d * d];
+        factor.copy_from_slice(&chunk.v[vo..vo + d * d]);
+        for i in 0..d {
+            factor[i + i * d] += damping[base + i];
+        }
+        if cholesky_in_place(factor, d).is_err() {
+            chunk.solve_failed = true;
+            return;
+        }
+        // Y^T = L^-1 W^T: each row of W (a column of W^T) through the forward substitution.
+        // Y is stored like W (rows x d, column-major); work on one row at a time in a small
+        // stack buffer to keep the access pattern simple.
+        let w = &chunk.w[wo..wo + rows * d];
+        let y = &mut chunk.y[wo..wo + rows * d];
+        let mut row = [0.0f64; 64];
+        let mut row_heap;
+        let row: &mut [f64] = if d <= 64 {
+            &mut row[..d]
+        } else {
+            row_heap = vec![0.0; d];
+            &mut row_heap
+        };
+        for i in 0..rows {
+            for j in 0..d {
+                row[j] = w[i + j * rows];
+            }
+            forward_substitute(factor, d, row);
+            for j in 0..d {
+                y[i + j * rows] = row[j];
+            }
+        }
+        let z = &mut chunk.z[go..go + d];
+        z.copy_from_slice(&chunk.ge[go..go + d]);
+        forward_substitute(factor, d, z);
+
+        if dense_partial {
+            // Global reduced row of each local row of W_e.
+            for &(ra_j, off_j) in &layout.coupled {
+                let dj = problem.dims[problem.reduced_blocks[ra_j]];
+                let gj = problem.reduced_offsets[ra_j];
+                for cj in 0..dj {
+                    let col = gj + cj;
+                    let lj = off_j + cj;
+                    // rhs += Y z
+                    let mut acc = 0.0;
+                    for k in 0..d {
+                        acc += y[lj + k * rows] * z[k];
+                    }
+                    chunk.rhs_partial[col] += acc;
+                    // S -= Y Y^T (lower and upper, full)
+                    for &(ra_i, off_i) in &layout.coupled {
+                        let di = problem.dims[problem.reduced_blocks[ra_i]];
+                        let gi = problem.reduced_offsets[ra_i];
+                        for ci in 0..di {
+                            let li = off_i + ci;
+                            let mut acc = 0.0;
+                            for k in 0..d {
+                                acc += y[li + k * rows] * y[lj + k * rows];
+                            }
+                            chunk.s_partial[(gi + ci) + col * n] -= acc;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Back-substitution for a chunk: `de = -L^-T (z + Y^T dr)` for every eliminated block, written
+/// into `chunk.z`. `dr` is the reduced step (reduced layout).
+pub(crate) fn back_substitute_chunk(problem: &Problem, chunk: &mut Chunk, dr: &[f64]) {
+    for (local, e) in chunk.elim.clone().enumerate() {
+        let layout = &problem.eliminated[e];
+        let d = layout.dim;
+        let rows = layout.w_rows;
+        let (vo, wo, go) = (chunk.v_off[local], chunk.w_off[local], chunk.g_off[local]);
+        let y = &chunk.y[wo..wo + rows * d];
+        let z = &mut chunk.z[go..go + d];
+        for (k, zk) in z.iter_mut().enumerate() {
+            let mut acc = *zk;
+            for &(ra, off) in &layout.coupled {
+                let da = problem.dims[problem.reduced_blocks[ra]];
+                let g = problem.reduced_offsets[ra];
+                for i in 0..da {
+                    acc += y[off + i + k * rows] * dr[g + i];
+                }
+            }
+            *zk = -acc;
+        }
+        backward_substitute_transpose(&chunk.factor[vo..vo + d * d], d, z);
+    }
+}
+
+/// Runs `f` on every chunk, in parallel when a pool is given.
+pub(crate) fn for_each_chunk<F>(chunks: &mut [Chunk], pool: Option<&rayon::ThreadPool>, f: F)
+where
+    F: Fn(&mut Chunk) + Sync + Send,
+{
+    match pool {
+        Some(pool) => pool.install(|| chunks.par_iter_mut().for_each(f)),
+        None => chunks.iter_mut().for_each(f),
+    }
+}
+
+/// Copies the eliminated steps (in `chunk.z` after [`back_substitute_chunk`]) into the flat step.
+pub(crate) fn scatter_eliminated_steps(problem: &Problem, chunks: &[Chunk], step: &mut [f64]) {
+    for chunk in chunks {
+        for (local, e) in chunk.elim.clone().enumerate() {
+            let layout = &problem.eliminated[e];
+            let go = chunk.g_off[local];
+            let base = problem.offsets[layout.block];
+            step[base..base + layout.dim].copy_from_slice(&chunk.z[go..go + layout.dim]);
+        }
+    }
+}

@@ -1,0 +1,627 @@
+//! The solver on non-camera problems whose answers are known independently.
+
+use lm_solver::numdiff::central_difference;
+use lm_solver::test_problems::{BearingAdjustment, PoseGraph, Rng};
+use lm_solver::{
+    CostFunction, CovarianceError, DampingPolicy, EvaluationError, JacobianBlocks,
+    LinearSolverKind, Loss, ProblemBuilder, ResidualBlockId, Solver, SolverError, SolverOptions,
+    Termination,
+};
+use nalgebra::{DMatrix, DVector};
+
+/// Residuals of a whole problem as one vector (for finite-difference Jacobians).
+fn stacked_residuals<C: CostFunction>(
+    cost: &C,
+    problem: &lm_solver::Problem,
+    x: &[f64],
+    out: &mut [f64],
+) {
+    let mut row = 0;
+    for r in 0..problem.num_residual_blocks() {
+        let id = ResidualBlockId(r);
+        let params: Vec<&[f64]> = problem
+            .residual_blocks_of(id)
+            .map(|b| problem.block(x, b))
+            .collect();
+        let dim = problem.residual_dim(id);
+        cost.evaluate(id, &params, &mut out[row..row + dim], None)
+            .unwrap();
+        row += dim;
+    }
+}
+
+/// Polynomial fit: a linear least-squares problem, so the minimizer is the ordinary
+/// least-squares solution, computed here independently by SVD. The covariance must equal
+/// sigma^2 (A^T A)^-1.
+struct Polynomial {
+    t: Vec<f64>,
+    y: Vec<f64>,
+    degree: usize,
+}
+
+impl CostFunction for Polynomial {
+    fn evaluate(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let t = self.t[block.0];
+        let mut value = 0.0;
+        let mut power = 1.0;
+        for c in &params[0][..=self.degree] {
+            value += c * power;
+            power *= t;
+        }
+        residuals[0] = value - self.y[block.0];
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            let mut power = 1.0;
+            for v in jac.iter_mut() {
+                *v = power;
+                power *= t;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn polynomial_fit_matches_the_svd_solution_and_its_covariance() {
+    let mut rng = Rng::new(3);
+    let degree = 3;
+    let t: Vec<f64> = (0..40).map(|i| -1.0 + i as f64 / 20.0).collect();
+    let y: Vec<f64> = t
+        .iter()
+        .map(|t| 0.5 - 1.0 * t + 0.3 * t * t + 2.0 * t * t * t + 0.05 * rng.normal())
+        .collect();
+    let mut builder = ProblemBuilder::new();
+    let c = builder.add_parameter_block(degree + 1);
+    for _ in &t {
+        builder.add_residual_block(1, &[c]);
+    }
+    let cost = Polynomial {
+        t: t.clone(),
+        y: y.clone(),
+        degree,
+    };
+    let mut solver = Solver::new(builder.build().unwrap(), SolverOptions::default()).unwrap();
+    let mut x = vec![0.0; degree + 1];
+    let report = solver.solve(&cost, &mut x).unwrap();
+    assert!(
+        report.termination.is_converged(),
+        "{:?}",
+        report.termination
+    );
+
+    let a = DMatrix::from_fn(t.len(), degree + 1, |i, k| t[i].powi(k as i32));
+    let b = DVector::from_vec(y);
+    let expected = a.clone().svd(true, true).solve(&b, 1e-14).unwrap();
+    for k in 0..=degree {
+        assert!(
+            (x[k] - expected[k]).abs() < 1e-10,
+            "{k}: {} vs {}",
+            x[k],
+            expected[k]
+        );
+    }
+    let residual = &a * &expected - &b;
+    let sigma2 = residual.norm_squared() / (t.len() - degree - 1) as f64;
+    let expected_cov = (a.transpose() * &a).try_inverse().unwrap() * sigma2;
+    let cov = solver.covariance(&cost, &x).unwrap();
+    assert!((cov.residual_variance - sigma2).abs() < 1e-12 * sigma2);
+    let block = cov.block(c).unwrap();
+    assert!((block - &expected_cov).norm() < 1e-9 * expected_cov.norm());
+}
+
+/// `y = a exp(b t)`: from a start far away, both damping policies reach the exact parameters of
+/// noise-free data.
+struct Exponential {
+    t: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl CostFunction for Exponential {
+    fn evaluate(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let (a, b) = (params[0][0], params[0][1]);
+        let t = self.t[block.0];
+        let e = (b * t).exp();
+        residuals[0] = a * e - self.y[block.0];
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            jac[0] = e;
+            jac[1] = a * t * e;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn exponential_fit_recovers_the_truth_with_both_damping_policies() {
+    let t: Vec<f64> = (0..30).map(|i| i as f64 * 0.2).collect();
+    let y: Vec<f64> = t.iter().map(|t| 3.0 * (-0.7 * t).exp()).collect();
+    let cost = Exponential { t, y };
+    for damping in [DampingPolicy::additive(), DampingPolicy::marquardt()] {
+        let mut builder = ProblemBuilder::new();
+        let ab = builder.add_parameter_block(2);
+        for _ in 0..cost.t.len() {
+            builder.add_residual_block(1, &[ab]);
+        }
+        let options = SolverOptions {
+            damping,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(builder.build().unwrap(), options).unwrap();
+        let mut x = vec![10.0, 0.5];
+        let report = solver.solve(&cost, &mut x).unwrap();
+        assert!(
+            report.termination.is_converged(),
+            "{damping:?}: {:?}",
+            report.termination
+        );
+        assert!(
+            (x[0] - 3.0).abs() < 1e-9 && (x[1] + 0.7).abs() < 1e-9,
+            "{damping:?}: {x:?}"
+        );
+        assert!(report.final_cost < 1e-20);
+    }
+}
+
+/// A line through points with 20% gross outliers: robust losses land near the truth, the plain
+/// squared loss does not.
+struct Line {
+    t: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl CostFunction for Line {
+    fn evaluate(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let t = self.t[block.0];
+        residuals[0] = params[0][0] + params[0][1] * t - self.y[block.0];
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            jac[0] = 1.0;
+            jac[1] = t;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn robust_losses_reject_outliers() {
+    let mut rng = Rng::new(11);
+    let t: Vec<f64> = (0..100).map(|i| i as f64 / 10.0).collect();
+    let y: Vec<f64> = t
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let clean = 1.0 + 2.0 * t + 0.1 * rng.normal();
+            if i % 5 == 0 {
+                clean + 30.0 + 10.0 * rng.uniform()
+            } else {
+                clean
+            }
+        })
+        .collect();
+    let cost = Line { t, y };
+    let fit = |loss: Loss| {
+        let mut builder = ProblemBuilder::new();
+        let p = builder.add_parameter_block(2);
+        for _ in 0..cost.t.len() {
+            builder.add_residual_block_with_loss(1, &[p], loss);
+        }
+        let mut solver = Solver::new(builder.build().unwrap(), SolverOptions::default()).unwrap();
+        let mut x = vec![0.0, 0.0];
+        let report = solver.solve(&cost, &mut x).unwrap();
+        assert!(
+            report.termination.is_converged(),
+            "{loss:?}: {:?}",
+            report.termination
+        );
+        x
+    };
+    let plain = fit(Loss::Trivial);
+    // Outliers add ~7 on average to the intercept.
+    assert!((plain[0] - 1.0).abs() > 3.0, "{plain:?}");
+    for loss in [Loss::Huber(0.3), Loss::Cauchy(0.3)] {
+        let x = fit(loss);
+        // 80 inliers with sigma 0.1: the robust intercept is within a few hundredths of 1 (Huber
+        // keeps a small bias from the outliers' bounded influence).
+        assert!(
+            (x[0] - 1.0).abs() < 0.3 && (x[1] - 2.0).abs() < 0.05,
+            "{loss:?}: {x:?}"
+        );
+    }
+}
+
+/// Dennis and Schnabel's large-residual example: `r = (x + 1, l x^2 + x - 1)` with `l = -2`. The
+/// minimizer is `x = 0`, but Gauss-Newton's local contraction factor there is `|l| = 2`: plain
+/// Gauss-Newton is not locally convergent (its iterates are pushed away from the minimizer and
+/// wander around it forever), while Levenberg-Marquardt converges.
+struct LargeResidual {
+    lambda: f64,
+}
+
+impl CostFunction for LargeResidual {
+    fn evaluate(
+        &self,
+        _block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let x = params[0][0];
+        residuals[0] = x + 1.0;
+        residuals[1] = self.lambda * x * x + x - 1.0;
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            jac[0] = 1.0;
+            jac[1] = 2.0 * self.lambda * x + 1.0;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
+    let cost = LargeResidual { lambda: -2.0 };
+    // Plain Gauss-Newton from 0.05: after 200 iterations it is still far from the minimizer.
+    let mut x = 0.05f64;
+    let mut late_max = 0.0f64;
+    for k in 0..200 {
+        let (r0, r1) = (x + 1.0, -2.0 * x * x + x - 1.0);
+        let (j0, j1) = (1.0, -4.0 * x + 1.0);
+        x -= (j0 * r0 + j1 * r1) / (j0 * j0 + j1 * j1);
+        if k >= 190 {
+            late_max = late_max.max(x.abs());
+        }
+    }
+    assert!(
+        late_max > 0.1,
+        "Gauss-Newton should not converge, last iterates within {late_max}"
+    );
+
+    let mut builder = ProblemBuilder::new();
+    let p = builder.add_parameter_block(1);
+    builder.add_residual_block(2, &[p]);
+    for damping in [DampingPolicy::additive(), DampingPolicy::marquardt()] {
+        let options = SolverOptions {
+            damping,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(builder.clone().build().unwrap(), options).unwrap();
+        let mut x = vec![0.05];
+        let report = solver.solve(&cost, &mut x).unwrap();
+        assert!(
+            report.termination.is_converged(),
+            "{:?}",
+            report.termination
+        );
+        assert!(x[0].abs() < 1e-6, "{damping:?}: {x:?}");
+        assert!(
+            report.iterations.iter().any(|r| !r.accepted),
+            "damping never engaged"
+        );
+    }
+}
+
+fn all_kinds() -> [LinearSolverKind; 4] {
+    [
+        LinearSolverKind::DenseSchur,
+        LinearSolverKind::SparseSchur,
+        LinearSolverKind::SparseCholesky,
+        LinearSolverKind::DenseReference,
+    ]
+}
+
+#[test]
+fn bearing_adjustment_recovers_noise_free_truth_with_every_solver() {
+    let ba = BearingAdjustment::generate(8, 25, 0.0, 5);
+    let truth = ba.truth();
+    for kind in all_kinds() {
+        let built = ba.build(true);
+        let options = SolverOptions {
+            linear_solver: kind,
+            chunk_work: 40,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(built.problem, options).unwrap();
+        assert_eq!(solver.linear_solver(), kind);
+        let mut x = ba.perturbed(0.3, 9);
+        let report = solver.solve(&ba, &mut x).unwrap();
+        assert!(
+            report.termination.is_converged(),
+            "{kind:?}: {:?}",
+            report.termination
+        );
+        let err = x
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-8, "{kind:?}: max error {err}");
+    }
+}
+
+#[test]
+fn noisy_bearing_adjustment_covariance_matches_the_dense_inverse() {
+    let ba = BearingAdjustment::generate(6, 12, 1e-3, 21);
+    let built = ba.build(true);
+    let problem = built.problem.clone();
+    let mut solver = Solver::new(built.problem, SolverOptions::default()).unwrap();
+    let mut x = ba.perturbed(0.1, 2);
+    let report = solver.solve(&ba, &mut x).unwrap();
+    assert!(report.termination.is_converged());
+    let cov = solver.covariance(&ba, &x).unwrap();
+
+    // Independent check: finite-difference Jacobian of all residuals, free columns only.
+    let m = problem.num_residuals();
+    let jac = central_difference(
+        |v, out| stacked_residuals(&ba, &problem, v, out),
+        &x,
+        m,
+        1e-7,
+    );
+    let free: Vec<usize> = (0..problem.num_parameters())
+        .filter(|&i| !problem.is_fixed(i))
+        .collect();
+    let j = DMatrix::from_fn(m, free.len(), |i, k| jac[i + free[k] * m]);
+    let mut r = vec![0.0; m];
+    stacked_residuals(&ba, &problem, &x, &mut r);
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / (m - free.len()) as f64;
+    assert!((cov.residual_variance - sigma2).abs() < 1e-9 * sigma2);
+    let dense = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
+    // Map back to blocks and compare. Finite differences (h = 1e-7, smooth O(1) residuals) limit
+    // the Jacobian to ~1e-8 relative, so entries agree to 1e-5 of their natural scale
+    // sqrt(C_aa C_bb); fixed components must be exactly zero.
+    let position = |i: usize| free.iter().position(|&f| f == i);
+    for &block in &built.blocks {
+        let Some(c) = cov.block(block) else { continue };
+        let o = problem.offset(block);
+        for a in 0..c.nrows() {
+            for b in 0..c.ncols() {
+                match (position(o + a), position(o + b)) {
+                    (Some(pa), Some(pb)) => {
+                        let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
+                        let diff = (c[(a, b)] - dense[(pa, pb)]).abs();
+                        assert!(
+                            diff <= 1e-5 * scale,
+                            "{block:?} ({a},{b}): {} vs {}",
+                            c[(a, b)],
+                            dense[(pa, pb)]
+                        );
+                    }
+                    _ => assert_eq!(c[(a, b)], 0.0),
+                }
+            }
+        }
+    }
+    // The standard deviations of a landmark are positive, those of the fixed gauge zero.
+    assert!(
+        cov.standard_deviations(built.blocks[10])
+            .iter()
+            .all(|&s| s > 0.0)
+    );
+    assert_eq!(cov.standard_deviations(built.blocks[0]), vec![0.0; 3]);
+    assert_eq!(cov.standard_deviations(built.blocks[1])[0], 0.0);
+}
+
+#[test]
+fn unfixed_gauge_is_reported_as_rank_deficient() {
+    let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
+    let mut builder = ProblemBuilder::new();
+    let cams: Vec<_> = ba
+        .cameras
+        .iter()
+        .map(|_| builder.add_parameter_block(3))
+        .collect();
+    let lms: Vec<_> = ba
+        .landmarks
+        .iter()
+        .map(|_| {
+            let id = builder.add_parameter_block(2);
+            builder.set_eliminated(id, true);
+            id
+        })
+        .collect();
+    for &(c, l, _) in &ba.observations {
+        builder.add_residual_block(1, &[cams[c], lms[l]]);
+    }
+    let mut solver = Solver::new(builder.build().unwrap(), SolverOptions::default()).unwrap();
+    let x = ba.truth();
+    match solver.covariance(&ba, &x) {
+        // Translation (2), rotation (1) and scale (1) are unobservable: rank = 15 - 4.
+        Err(CovarianceError::RankDeficient { rank, dimension }) => {
+            assert_eq!(dimension, 15);
+            assert_eq!(rank, 11);
+        }
+        other => panic!("expected a rank deficiency, got {other:?}"),
+    }
+}
+
+#[test]
+fn pose_graph_recovers_truth_and_solves_noisy_graphs() {
+    let graph = PoseGraph::generate(30, 10, 0.0, 8);
+    for kind in [
+        LinearSolverKind::SparseCholesky,
+        LinearSolverKind::DenseSchur,
+    ] {
+        let built = graph.build();
+        let options = SolverOptions {
+            linear_solver: kind,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(built.problem, options).unwrap();
+        let mut rng = Rng::new(1);
+        let truth = graph.truth();
+        let mut x: Vec<f64> = truth
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if i < 3 { *v } else { v + rng.range(-0.2, 0.2) })
+            .collect();
+        let report = solver.solve(&graph, &mut x).unwrap();
+        assert!(
+            report.termination.is_converged(),
+            "{:?}",
+            report.termination
+        );
+        let err = x
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-8, "{kind:?}: {err}");
+    }
+    let noisy = PoseGraph::generate(50, 15, 0.01, 3);
+    let built = noisy.build();
+    let mut solver = Solver::new(built.problem, SolverOptions::default()).unwrap();
+    let mut x = noisy.truth();
+    let report = solver.solve(&noisy, &mut x).unwrap();
+    assert!(report.termination.is_converged());
+    assert!(report.final_cost < report.initial_cost);
+    // At the minimum of a noisy graph the cost is about half the residual count times sigma^2.
+    let expected = 0.5 * (3 * noisy.edges.len() - 3 * 49) as f64 * 1e-4;
+    assert!(report.final_cost > 0.3 * expected && report.final_cost < 2.0 * expected);
+}
+
+#[test]
+fn results_are_identical_for_any_thread_count() {
+    let ba = BearingAdjustment::generate(20, 200, 1e-3, 13);
+    let run = |threads: usize| {
+        let built = ba.build(true);
+        let options = SolverOptions {
+            num_threads: threads,
+            chunk_work: 100,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(built.problem, options).unwrap();
+        assert!(solver.num_chunks() > 4);
+        let mut x = ba.perturbed(0.2, 3);
+        let report = solver.solve(&ba, &mut x).unwrap();
+        (x, report.final_cost, report.iterations.len())
+    };
+    let (x1, c1, n1) = run(1);
+    for threads in [2, 3] {
+        let (x, c, n) = run(threads);
+        assert_eq!(n, n1);
+        assert_eq!(c.to_bits(), c1.to_bits());
+        assert!(x.iter().zip(&x1).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+}
+
+/// A cost that fails (like a point behind a camera) beyond `x = 3`. Its residual `tanh(x - 2)`
+/// makes the Gauss-Newton step from `x = 0.5` overshoot to about 5.5.
+struct Guarded;
+
+impl CostFunction for Guarded {
+    fn evaluate(
+        &self,
+        _block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let x = params[0][0];
+        if x > 3.0 {
+            return Err(EvaluationError::new("x beyond 3"));
+        }
+        let t = (x - 2.0).tanh();
+        residuals[0] = t;
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            jac[0] = 1.0 - t * t;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn evaluation_failures_error_at_the_start_and_reject_trial_steps() {
+    let mut builder = ProblemBuilder::new();
+    let p = builder.add_parameter_block(1);
+    builder.add_residual_block(1, &[p]);
+    let problem = builder.build().unwrap();
+    let mut solver = Solver::new(problem, SolverOptions::default()).unwrap();
+    let err = solver.solve(&Guarded, &mut [3.5]).unwrap_err();
+    assert!(
+        matches!(err, SolverError::InitialEvaluation { residual: 0, .. }),
+        "{err:?}"
+    );
+    let mut x = [0.5];
+    let report = solver.solve(&Guarded, &mut x).unwrap();
+    assert!(
+        report.termination.is_converged(),
+        "{:?}",
+        report.termination
+    );
+    assert!((x[0] - 2.0).abs() < 1e-8);
+    assert!(
+        report
+            .iterations
+            .iter()
+            .any(|r| !r.accepted && r.trial_cost.is_infinite())
+    );
+    assert!(solver.solve(&Guarded, &mut [f64::NAN]).is_err());
+    assert!(matches!(
+        solver.solve(&Guarded, &mut [1.0, 2.0]),
+        Err(SolverError::ParameterLength {
+            expected: 1,
+            found: 2
+        })
+    ));
+}
+
+#[test]
+fn termination_reasons_are_reported() {
+    let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
+    let built = ba.build(true);
+    let options = SolverOptions {
+        max_iterations: 1,
+        ..Default::default()
+    };
+    let mut solver = Solver::new(built.problem, options).unwrap();
+    let mut x = ba.perturbed(0.3, 1);
+    let report = solver.solve(&ba, &mut x).unwrap();
+    assert_eq!(report.termination, Termination::MaxIterations);
+    assert_eq!(report.iterations.len(), 1);
+    assert!(!report.termination.is_converged());
+
+    // Noise-free data at the truth: the gradient is zero.
+    let exact = BearingAdjustment::generate(5, 10, 0.0, 4);
+    let built = exact.build(true);
+    let mut solver = Solver::new(built.problem, SolverOptions::default()).unwrap();
+    let mut x = exact.truth();
+    let report = solver.solve(&exact, &mut x).unwrap();
+    assert_eq!(report.termination, Termination::GradientTolerance);
+    assert!(report.iterations.is_empty());
+
+    // The observer sees every attempt.
+    let built = ba.build(true);
+    let mut solver = Solver::new(built.problem, SolverOptions::default()).unwrap();
+    let mut x = ba.perturbed(0.3, 1);
+    let mut seen = 0;
+    let report = solver
+        .solve_with_observer(&ba, &mut x, |_| seen += 1)
+        .unwrap();
+    assert_eq!(seen, report.iterations.len());
+    assert!(report.termination.is_converged());
+    assert_eq!(report.jacobian_evaluations, report.accepted_steps + 1);
+}
