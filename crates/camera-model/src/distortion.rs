@@ -56,6 +56,10 @@ pub trait LensDistortion:
     /// Parameter names, in parameter order (length `NUM_PARAMS`).
     const PARAM_NAMES: &'static [&'static str];
 
+    /// Indices of the tangential (decentering) parameters, which calibration can hold at zero
+    /// (empty for purely radial models).
+    const TANGENTIAL_PARAMS: &'static [usize] = &[];
+
     /// The type of `d d / d params`, a 2 x `NUM_PARAMS` matrix.
     type ParamJacobian: ParamJacobian;
 
@@ -113,6 +117,7 @@ impl LensDistortion for BrownConrady {
     const NUM_PARAMS: usize = 4;
     const NAME: &'static str = "brown-conrady-k1k2p1p2";
     const PARAM_NAMES: &'static [&'static str] = &["k1", "k2", "p1", "p2"];
+    const TANGENTIAL_PARAMS: &'static [usize] = &[2, 3];
     type ParamJacobian = SMatrix<f64, 2, 4>;
 
     #[inline]

@@ -19,6 +19,9 @@
 //! assert!(compare_jacobians(&analytic, &numeric, 2, 1e-8, 1e-10).is_ok());
 //! ```
 
+use crate::cost::{CostFunction, EvaluationError, JacobianBlocks};
+use crate::problem::ResidualBlockId;
+
 /// Central-difference Jacobian of `f: R^n -> R^m` at `x`.
 ///
 /// `f(x, out)` writes the `m` function values into `out`. The result is column-major: entry
@@ -131,6 +134,87 @@ pub fn compare_jacobians(
             relative_error: f64::INFINITY,
         }),
     }
+}
+
+/// Why [`check_cost_function`] failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CostCheckError {
+    /// The cost function returned an error.
+    Evaluation(EvaluationError),
+    /// The residuals differ between the evaluation with Jacobians and the one without.
+    ResidualsDiffer,
+    /// A Jacobian entry differs from its finite difference (columns are numbered over the
+    /// concatenated parameter blocks).
+    Mismatch(JacobianMismatch),
+}
+
+impl std::fmt::Display for CostCheckError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CostCheckError::Evaluation(e) => write!(f, "evaluation failed: {e}"),
+            CostCheckError::ResidualsDiffer => {
+                write!(f, "residuals differ with and without Jacobians")
+            }
+            CostCheckError::Mismatch(m) => m.fmt(f),
+        }
+    }
+}
+
+/// Checks a cost function's analytic Jacobian for one residual block against central
+/// differences (like Ceres' gradient checker).
+///
+/// Evaluates residual block `block` (of dimension `rows`) at `params` with and without
+/// Jacobians, requires identical residuals, then compares every Jacobian block with
+/// [`central_difference`] (step `relative_step * max(|x|, 1)`) through [`compare_jacobians`].
+pub fn check_cost_function<C: CostFunction>(
+    cost: &C,
+    block: ResidualBlockId,
+    params: &[&[f64]],
+    rows: usize,
+    relative_step: f64,
+    relative_tolerance: f64,
+    absolute_scale: f64,
+) -> Result<(), CostCheckError> {
+    let mut layout = Vec::with_capacity(params.len());
+    let mut cols = 0;
+    for p in params {
+        layout.push((cols, p.len()));
+        cols += p.len();
+    }
+    let mut buffer = vec![f64::NAN; rows * cols];
+    let mut residuals = vec![0.0; rows];
+    let mut jacobians = JacobianBlocks {
+        buffer: &mut buffer,
+        rows,
+        layout: &layout,
+    };
+    cost.evaluate(block, params, &mut residuals, Some(&mut jacobians))
+        .map_err(CostCheckError::Evaluation)?;
+    let mut plain = vec![0.0; rows];
+    cost.evaluate(block, params, &mut plain, None)
+        .map_err(CostCheckError::Evaluation)?;
+    if plain != residuals {
+        return Err(CostCheckError::ResidualsDiffer);
+    }
+    let x: Vec<f64> = params.iter().flat_map(|p| p.iter().copied()).collect();
+    let mut failure = None;
+    let numeric = central_difference(
+        |v: &[f64], out: &mut [f64]| {
+            let blocks: Vec<&[f64]> = layout.iter().map(|&(c, d)| &v[c..c + d]).collect();
+            if let Err(e) = cost.evaluate(block, &blocks, out, None) {
+                failure.get_or_insert(e);
+                out.fill(f64::NAN);
+            }
+        },
+        &x,
+        rows,
+        relative_step,
+    );
+    if let Some(e) = failure {
+        return Err(CostCheckError::Evaluation(e));
+    }
+    compare_jacobians(&buffer, &numeric, rows, relative_tolerance, absolute_scale)
+        .map_err(CostCheckError::Mismatch)
 }
 
 #[cfg(test)]

@@ -1,0 +1,251 @@
+#!/usr/bin/env bash
+# Peer comparison: OpenCV (cv2.calibrateCamera / cv2.stereoCalibrate) vs our `calib` tool on the
+# same observation files, both single-threaded. See benches/peers/README.md.
+#
+# Usage: benches/peers/run.sh [options]
+#   --quick             skip the 1000-view problems (the 1000x400 stereo OpenCV run takes minutes)
+#   --repeats N         repeats for every problem (default: 5, or 1 for 1000-view problems;
+#                       see --repeats-large)
+#   --repeats-large N   repeats for the 1000-view problems (default 1)
+#   --seed S            base seed for `calib synth` (default 1; problem k uses S + k)
+#   --only REGEX        run only problems whose name matches REGEX (grep -E)
+#   --timeout SECONDS   give up on one OpenCV or calib run after SECONDS (default: no limit)
+#   --calib PATH        use this calib binary instead of building target/release/calib
+#   --no-build          do not run cargo build (binary must already exist)
+#   --python-synth      generate problems with make_synthetic.py instead of `calib synth`
+#                       (testing the harness only: the files then differ from `calib synth`'s)
+#   -h, --help          this text
+set -euo pipefail
+
+ORIG_ARGS=("$@")
+usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
+die() { echo "run.sh: error: $*" >&2; exit 2; }
+
+QUICK=0
+REPEATS=""
+REPEATS_LARGE=1
+SEED=1
+ONLY=""
+TIMEOUT=""
+CALIB=""
+BUILD=1
+PYSYNTH=0
+while [[ $# -gt 0 ]]; do
+    case "$1" in
+        --quick) QUICK=1 ;;
+        --repeats) [[ $# -ge 2 ]] || die "--repeats needs a value"; REPEATS="$2"; shift ;;
+        --repeats=*) REPEATS="${1#*=}" ;;
+        --repeats-large) [[ $# -ge 2 ]] || die "--repeats-large needs a value"; REPEATS_LARGE="$2"; shift ;;
+        --repeats-large=*) REPEATS_LARGE="${1#*=}" ;;
+        --seed) [[ $# -ge 2 ]] || die "--seed needs a value"; SEED="$2"; shift ;;
+        --seed=*) SEED="${1#*=}" ;;
+        --only) [[ $# -ge 2 ]] || die "--only needs a value"; ONLY="$2"; shift ;;
+        --only=*) ONLY="${1#*=}" ;;
+        --timeout) [[ $# -ge 2 ]] || die "--timeout needs a value"; TIMEOUT="$2"; shift ;;
+        --timeout=*) TIMEOUT="${1#*=}" ;;
+        --calib) [[ $# -ge 2 ]] || die "--calib needs a value"; CALIB="$2"; shift ;;
+        --calib=*) CALIB="${1#*=}" ;;
+        --no-build) BUILD=0 ;;
+        --python-synth) PYSYNTH=1 ;;
+        -h|--help) usage; exit 0 ;;
+        *) die "unknown option '$1' (see --help)" ;;
+    esac
+    shift
+done
+is_posint() { [[ "$1" =~ ^[1-9][0-9]*$ ]]; }
+[[ -z "$REPEATS" ]] || is_posint "$REPEATS" || die "--repeats must be a positive integer"
+is_posint "$REPEATS_LARGE" || die "--repeats-large must be a positive integer"
+[[ "$SEED" =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer"
+[[ -z "$TIMEOUT" ]] || is_posint "$TIMEOUT" || die "--timeout must be a positive integer (seconds)"
+if [[ -n "$CALIB" ]]; then
+    [[ "$CALIB" = /* ]] || CALIB="$PWD/$CALIB"   # relative to the caller's directory
+fi
+
+COMMAND="benches/peers/run.sh"
+for a in "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}"; do COMMAND+=" $(printf '%q' "$a")"; done
+
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+ROOT="$(cd "$HERE/../.." && pwd)"
+cd "$ROOT"
+PEERS=benches/peers
+OUT=$PEERS/out
+VENV=$PEERS/.venv
+PY=$VENV/bin/python
+mkdir -p "$OUT"
+
+# Single-threaded everywhere.
+export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+
+# ---------------------------------------------------------------- 1. Python + OpenCV
+echo "== Python environment ($VENV)"
+if [[ ! -x "$PY" ]]; then
+    command -v python3 >/dev/null || die "python3 not found"
+    python3 -m venv "$VENV" || die "could not create the virtual environment $VENV (python3-venv missing?)"
+fi
+if ! "$PY" -c 'import cv2, numpy' 2>/dev/null; then
+    "$PY" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
+    "$PY" -m pip install --quiet opencv-python-headless numpy \
+        || die "pip install opencv-python-headless numpy failed"
+fi
+CV_VERSION="$("$PY" -c 'import cv2; print(cv2.__version__)')"
+NP_VERSION="$("$PY" -c 'import numpy; print(numpy.__version__)')"
+echo "cv2 $CV_VERSION, numpy $NP_VERSION ($("$PY" --version 2>&1))"
+
+# ---------------------------------------------------------------- 2. calib
+if [[ -z "$CALIB" ]]; then
+    TARGET_DIR="${CARGO_TARGET_DIR:-target}"
+    [[ "$TARGET_DIR" = /* ]] || TARGET_DIR="$ROOT/$TARGET_DIR"
+    CALIB="$TARGET_DIR/release/calib"
+    if [[ $BUILD -eq 1 ]]; then
+        echo "== cargo build --release -p calib-cli"
+        cargo build --release -p calib-cli || die "cargo build --release -p calib-cli failed"
+    fi
+fi
+[[ -x "$CALIB" ]] || die "calib binary not found at $CALIB (build with: cargo build --release -p calib-cli)"
+CALIB_REV="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+if [[ -n "$(git status --porcelain -- crates Cargo.toml Cargo.lock 2>/dev/null)" ]]; then
+    CALIB_REV+="+dirty"
+fi
+
+# Does the binary have subcommand $1? `calib SUB --help` succeeding is enough; otherwise look for
+# the word in the top-level help.
+has_subcommand() {
+    local sub="$1" help
+    if "$CALIB" "$sub" --help >/dev/null 2>&1; then return 0; fi
+    help="$({ "$CALIB" --help; "$CALIB" help; } 2>&1 || true)"
+    grep -qwE -- "$sub" <<<"$help"
+}
+needed=(single stereo)
+[[ $PYSYNTH -eq 1 ]] || needed=(synth "${needed[@]}")
+missing=()
+for sub in "${needed[@]}"; do has_subcommand "$sub" || missing+=("$sub"); done
+if [[ ${#missing[@]} -gt 0 ]]; then
+    die "the calib binary ($CALIB) lacks the subcommand(s): ${missing[*]}
+       ('calib SUB --help' failed and 'calib --help' does not mention them).
+       This harness needs: calib synth {single|stereo} ..., calib single FILE -o OUT --threads 1 --quiet,
+       calib stereo FILE -o OUT --threads 1 --quiet.$([[ " ${missing[*]} " == *" synth "* ]] && printf '\n       To test the harness without `calib synth`, pass --python-synth.')"
+fi
+
+# ---------------------------------------------------------------- 3. problems
+# name kind views board seed-offset ("-" board = bundled real data file in column 3)
+PROBLEMS=(
+    "real_left        single data/sourishg1/left.json   -     0"
+    "real_stereo      stereo data/sourishg1/stereo.json -     0"
+    "single_10x54     single 10                         9x6   1"
+    "single_100x54    single 100                        9x6   2"
+    "single_1000x54   single 1000                       9x6   3"
+    "single_10x400    single 10                         20x20 4"
+    "single_100x400   single 100                        20x20 5"
+    "single_1000x400  single 1000                       20x20 6"
+    "stereo_10x54     stereo 10                         9x6   7"
+    "stereo_200x54    stereo 200                        9x6   8"
+    "stereo_1000x400  stereo 1000                       20x20 9"
+)
+
+run_limited() {  # run "$@" under the optional --timeout
+    if [[ -n "$TIMEOUT" ]]; then timeout "$TIMEOUT" "$@"; else "$@"; fi
+}
+
+MANIFEST=$OUT/manifest.tsv
+: > "$MANIFEST"
+SELECTED=()
+echo "== generating problems in $OUT ($([[ $PYSYNTH -eq 1 ]] && echo 'make_synthetic.py, TEST MODE' || echo 'calib synth'))"
+for p in "${PROBLEMS[@]}"; do
+    read -r name kind views board off <<<"$p"
+    if [[ -n "$ONLY" ]] && ! grep -qE -- "$ONLY" <<<"$name"; then continue; fi
+    if [[ "$board" = "-" ]]; then
+        file="$views"
+        [[ -f "$file" ]] || die "bundled data file $file is missing"
+        large=0
+    else
+        if [[ $QUICK -eq 1 && $views -ge 1000 ]]; then echo "  skip $name (--quick)"; continue; fi
+        file=$OUT/$name.obs.json
+        seed=$((SEED + off))
+        if [[ $PYSYNTH -eq 1 ]]; then
+            gen=("$PY" "$PEERS/make_synthetic.py" "$kind")
+        else
+            gen=("$CALIB" synth "$kind")
+        fi
+        gen+=(--views "$views" --board "$board" --noise 0.2 --seed "$seed" -o "$file")
+        echo "  ${gen[*]#"$ROOT/"}"
+        rm -f "$file"
+        if ! "${gen[@]}" >"$OUT/$name.synth.log" 2>&1; then
+            cat "$OUT/$name.synth.log" >&2
+            die "generating $name failed: ${gen[*]}"
+        fi
+        [[ -s "$file" ]] || die "generator did not write $file: ${gen[*]}"
+        large=$([[ $views -ge 1000 ]] && echo 1 || echo 0)
+    fi
+    if [[ -n "$REPEATS" ]]; then reps=$REPEATS
+    elif [[ $large -eq 1 ]]; then reps=$REPEATS_LARGE
+    else reps=5; fi
+    printf '%s\t%s\t%s\t%s\n' "$name" "$kind" "$file" "$reps" >>"$MANIFEST"
+    SELECTED+=("$name")
+done
+[[ ${#SELECTED[@]} -gt 0 ]] || die "no problem selected (check --only / --quick)"
+
+# ---------------------------------------------------------------- 4. run both tools
+FAILED=0
+while IFS=$'\t' read -r -u 3 name kind file reps; do
+    base=$OUT/$name
+    rm -f "$base".opencv.json "$base".opencv.log "$base".calib.r*.json "$base".calib.log "$base".status
+    echo "== $name ($kind, $reps repeat(s))"
+
+    echo "  opencv_peer.py $kind $file --repeats $reps"
+    if run_limited "$PY" "$PEERS/opencv_peer.py" "$kind" "$file" --repeats "$reps" \
+            >"$base.opencv.json.tmp" 2>"$base.opencv.log" </dev/null; then
+        mv "$base.opencv.json.tmp" "$base.opencv.json"
+        "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); print("    rms %.8f  median %.6f s  all %s" % (d["rms"], d["seconds_median"], ["%.4f" % t for t in d["seconds_all"]]))' "$base.opencv.json"
+    else
+        rc=$?
+        rm -f "$base.opencv.json.tmp"
+        msg="opencv failed (exit $rc$([[ $rc -eq 124 && -n "$TIMEOUT" ]] && echo ", timeout ${TIMEOUT}s"))"
+        echo "  $msg; see $base.opencv.log" >&2
+        tail -n 5 "$base.opencv.log" >&2 || true
+        echo "$msg" >>"$base.status"
+        FAILED=1
+    fi
+
+    for ((r = 1; r <= reps; r++)); do
+        res=$base.calib.r$r.json
+        cmd=("$CALIB" "$kind" "$file" -o "$res" --threads 1 --quiet)
+        [[ $r -gt 1 ]] || echo "  calib $kind $file -o $res --threads 1 --quiet   (x$reps)"
+        if run_limited "${cmd[@]}" >>"$base.calib.log" 2>&1 </dev/null; then :; else
+            rc=$?
+            msg="calib failed (exit $rc$([[ $rc -eq 124 && -n "$TIMEOUT" ]] && echo ", timeout ${TIMEOUT}s"))"
+            echo "  $msg: ${cmd[*]}" >&2
+            tail -n 10 "$base.calib.log" >&2 || true
+            echo "$msg" >>"$base.status"
+            rm -f "$res"
+            FAILED=1
+            break
+        fi
+        if ! "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); assert isinstance(d["elapsed_seconds"], (int, float)) and isinstance(d["rms"], (int, float))' "$res" 2>/dev/null; then
+            echo "  calib result $res lacks numeric 'rms' / 'elapsed_seconds' fields" >&2
+            echo "calib result lacks rms/elapsed_seconds" >>"$base.status"
+            FAILED=1
+            break
+        fi
+    done
+    ls "$base".calib.r*.json >/dev/null 2>&1 && "$PY" -c '
+import json, statistics, sys
+ds = [json.load(open(p)) for p in sys.argv[1:]]
+ts = [d["elapsed_seconds"] for d in ds if isinstance(d.get("elapsed_seconds"), (int, float))]
+if ts:
+    print("    rms %.8f  median %.6f s  all %s" % (ds[0]["rms"], statistics.median(ts), ["%.4f" % t for t in ts]))
+' "$base".calib.r*.json || true
+done 3<"$MANIFEST"
+
+# ---------------------------------------------------------------- 5. table
+echo
+echo "== results"
+echo
+"$PY" "$PEERS/report.py" "$OUT" "$MANIFEST" --command "$COMMAND" \
+    --calib-rev "calib $CALIB_REV$([[ $PYSYNTH -eq 1 ]] && echo ', problems from make_synthetic.py (TEST MODE)')" \
+    | tee "$OUT/results.md"
+echo
+echo "(written to $OUT/results.md; per-problem JSON and logs in $OUT/)"
+if [[ $FAILED -ne 0 ]]; then
+    echo "run.sh: some runs failed (see the table and $OUT/*.log)" >&2
+    exit 1
+fi

@@ -1,0 +1,140 @@
+//! Errors of the single-camera calibration.
+
+use homography::HomographyError;
+use lm_solver::{CovarianceError, SolverError};
+
+/// Which coordinate of a point is at fault.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointKind {
+    /// A board (object) point.
+    Object,
+    /// A measured image point.
+    Image,
+}
+
+impl std::fmt::Display for PointKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PointKind::Object => "object",
+            PointKind::Image => "image",
+        })
+    }
+}
+
+/// What can go wrong in a calibration. Every variant about the input names the view (index in the
+/// input, starting at 0) and, where it applies, the point.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    /// No views were given (or none is left after skipping bad ones).
+    #[error("no usable views{}", if *.skipped > 0 { format!(" ({} skipped as bad)", .skipped) } else { String::new() })]
+    NoViews {
+        /// How many views were skipped.
+        skipped: usize,
+    },
+    /// The image size is missing.
+    #[error(
+        "image size is missing: the principal point starts at the image centre, so it is required"
+    )]
+    ImageSizeMissing,
+    /// The image size has a zero dimension.
+    #[error("invalid image size {width}x{height}: both dimensions must be positive")]
+    InvalidImageSize {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+    },
+    /// A view has different numbers of object and image points.
+    #[error("view {view}: {object} object points but {image} image points")]
+    PointCountMismatch {
+        /// View index.
+        view: usize,
+        /// Number of object points.
+        object: usize,
+        /// Number of image points.
+        image: usize,
+    },
+    /// A view has fewer than 4 points (a homography needs 4).
+    #[error("view {view}: {found} points, at least 4 are needed")]
+    TooFewPoints {
+        /// View index.
+        view: usize,
+        /// Number of points.
+        found: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("view {view}, point {point}: non-finite {kind} coordinate")]
+    NonFinite {
+        /// View index.
+        view: usize,
+        /// Point index.
+        point: usize,
+        /// Object or image point.
+        kind: PointKind,
+    },
+    /// An object point is off the plane `Z = 0`.
+    #[error(
+        "view {view}, point {point}: object point has Z = {z}; the planar method needs every board point on Z = 0"
+    )]
+    NotPlanar {
+        /// View index.
+        view: usize,
+        /// Point index.
+        point: usize,
+        /// The offending Z.
+        z: f64,
+    },
+    /// The homography of a view could not be estimated (collinear or coincident points, rank
+    /// deficiency, degenerate solution).
+    #[error("view {view}: {source}")]
+    Homography {
+        /// View index.
+        view: usize,
+        /// The homography error.
+        source: HomographyError,
+    },
+    /// Not enough measurements for the parameters to be estimated.
+    #[error(
+        "{residuals} residuals (2 per point) for {parameters} free parameters: add views or points, or fix parameters"
+    )]
+    TooFewObservations {
+        /// Number of scalar residuals.
+        residuals: usize,
+        /// Number of free parameters.
+        parameters: usize,
+    },
+    /// Every view is (nearly) fronto-parallel: the focal length cannot be observed.
+    #[error(
+        "all views are nearly fronto-parallel (largest tilt measure {tilt_measure:.2e}): the focal length is not observable; tilt the board in some views"
+    )]
+    FrontoParallel {
+        /// The largest per-view tilt measure (about half the squared tilt angle, radians^2).
+        tilt_measure: f64,
+    },
+    /// The closed-form initialization failed for another reason.
+    #[error("initialization failed: {reason}")]
+    Initialization {
+        /// Why.
+        reason: String,
+    },
+    /// The initial pose of a view puts a board point behind the camera.
+    #[error("view {view}: the initial pose puts point {point} behind the camera")]
+    PointBehindCamera {
+        /// View index.
+        view: usize,
+        /// Point index.
+        point: usize,
+    },
+    /// An invalid option value.
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
+    /// The solver could not be set up or started.
+    #[error("solver: {0}")]
+    Solver(#[from] SolverError),
+    /// The parameters are not all determined by the data (singular normal matrix at the minimum).
+    #[error("the calibration is not unique: {0}")]
+    Unobservable(#[from] CovarianceError),
+    /// The optimization produced a non-finite value.
+    #[error("the optimization diverged ({0})")]
+    Diverged(String),
+}

@@ -1,0 +1,314 @@
+//! Input: views of a planar board, each a list of board points matched to measured pixels.
+//!
+//! The JSON format (`docs/formats.md`) is the one of `data/README.md`:
+//!
+//! ```json
+//! { "image_size": [width, height],
+//!   "views": [ { "image": "left1.jpg",
+//!                "object_points": [[X, Y, Z], ...],
+//!                "image_points":  [[x, y], ...] } ] }
+//! ```
+//!
+//! Unknown keys are ignored.
+
+use crate::error::{CalibrationError, PointKind};
+use nalgebra::{Point2, Point3};
+use serde::{Deserialize, Serialize};
+
+/// Image size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ImageSize {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+impl ImageSize {
+    /// A size.
+    pub const fn new(width: u32, height: u32) -> Self {
+        Self { width, height }
+    }
+
+    /// The image centre in OpenCV's pixel convention: `((w - 1) / 2, (h - 1) / 2)` (the first
+    /// pixel's centre is `(0, 0)`).
+    pub fn centre(&self) -> (f64, f64) {
+        (
+            (self.width as f64 - 1.0) / 2.0,
+            (self.height as f64 - 1.0) / 2.0,
+        )
+    }
+}
+
+/// One view of the board.
+#[derive(Debug, Clone, PartialEq)]
+pub struct View {
+    /// A name for messages and reports (the image file name, or "view N").
+    pub name: String,
+    /// Board points, in board units; the planar method needs `Z = 0`.
+    pub object_points: Vec<Point3<f64>>,
+    /// Measured pixels (OpenCV convention), in the same order.
+    pub image_points: Vec<Point2<f64>>,
+}
+
+/// All views of one camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observations {
+    /// Image size; required by the calibration (the principal point starts at the centre).
+    pub image_size: Option<ImageSize>,
+    /// The views.
+    pub views: Vec<View>,
+}
+
+/// Problems reading an observation file.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The path.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid observation JSON.
+    #[error("{path}: {source}")]
+    Json {
+        /// The path (or "<string>").
+        path: String,
+        /// The parse error, with line and column.
+        source: serde_json::Error,
+    },
+}
+
+#[derive(Deserialize)]
+struct ViewFile {
+    #[serde(default)]
+    image: Option<String>,
+    object_points: Vec<[f64; 3]>,
+    image_points: Vec<[f64; 2]>,
+}
+
+#[derive(Deserialize)]
+struct ObservationFile {
+    #[serde(default)]
+    image_size: Option<[u32; 2]>,
+    views: Vec<ViewFile>,
+}
+
+impl Observations {
+    /// Parses the JSON observation format.
+    pub fn from_json(text: &str) -> Result<Self, ReadError> {
+        Self::parse(text, "<string>")
+    }
+
+    /// Reads a JSON observation file.
+    pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| ReadError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    fn parse(text: &str, path: &str) -> Result<Self, ReadError> {
+        let file: ObservationFile =
+            serde_json::from_str(text).map_err(|source| ReadError::Json {
+                path: path.to_string(),
+                source,
+            })?;
+        Ok(Self {
+            image_size: file.image_size.map(|[w, h]| ImageSize::new(w, h)),
+            views: file
+                .views
+                .into_iter()
+                .enumerate()
+                .map(|(i, v)| View {
+                    name: v.image.unwrap_or_else(|| format!("view {i}")),
+                    object_points: v
+                        .object_points
+                        .iter()
+                        .map(|p| Point3::new(p[0], p[1], p[2]))
+                        .collect(),
+                    image_points: v
+                        .image_points
+                        .iter()
+                        .map(|p| Point2::new(p[0], p[1]))
+                        .collect(),
+                })
+                .collect(),
+        })
+    }
+
+    /// Total number of points over all views.
+    pub fn num_points(&self) -> usize {
+        self.views.iter().map(|v| v.object_points.len()).sum()
+    }
+
+    /// The JSON text of these observations (the format [`Observations::from_json`] reads).
+    pub fn to_json_value(&self) -> serde_json::Value {
+        let views: Vec<serde_json::Value> = self
+            .views
+            .iter()
+            .map(|v| {
+                serde_json::json!({
+                    "image": v.name,
+                    "object_points": v.object_points.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
+                    "image_points": v.image_points.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        let mut out = serde_json::json!({ "views": views });
+        if let Some(size) = self.image_size {
+            out["image_size"] = serde_json::json!([size.width, size.height]);
+        }
+        out
+    }
+}
+
+/// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
+/// decimal, e.g. 24.23 mm squares) is far below it, a real out-of-plane point far above.
+pub const PLANARITY_TOLERANCE: f64 = 1e-9;
+
+/// Checks one view's points: counts, finiteness and planarity.
+pub fn check_view(index: usize, view: &View) -> Result<(), CalibrationError> {
+    let (n_obj, n_img) = (view.object_points.len(), view.image_points.len());
+    if n_obj != n_img {
+        return Err(CalibrationError::PointCountMismatch {
+            view: index,
+            object: n_obj,
+            image: n_img,
+        });
+    }
+    if n_obj < 4 {
+        return Err(CalibrationError::TooFewPoints {
+            view: index,
+            found: n_obj,
+        });
+    }
+    let mut extent = 0.0f64;
+    for (point, (o, m)) in view
+        .object_points
+        .iter()
+        .zip(&view.image_points)
+        .enumerate()
+    {
+        if !(o.x.is_finite() && o.y.is_finite() && o.z.is_finite()) {
+            return Err(CalibrationError::NonFinite {
+                view: index,
+                point,
+                kind: PointKind::Object,
+            });
+        }
+        if !(m.x.is_finite() && m.y.is_finite()) {
+            return Err(CalibrationError::NonFinite {
+                view: index,
+                point,
+                kind: PointKind::Image,
+            });
+        }
+        extent = extent.max(o.x.abs()).max(o.y.abs());
+    }
+    let tolerance = PLANARITY_TOLERANCE * extent.max(f64::MIN_POSITIVE);
+    if let Some((point, o)) = view
+        .object_points
+        .iter()
+        .enumerate()
+        .find(|(_, o)| o.z.abs() > tolerance)
+    {
+        return Err(CalibrationError::NotPlanar {
+            view: index,
+            point,
+            z: o.z,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_documented_format_and_ignores_unknown_keys() {
+        let text = r#"{ "name": "x", "image_size": [640, 480],
+            "views": [ { "image": "a.png", "extra": 1,
+                         "object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]],
+                         "image_points": [[1,2],[3,4],[5,6],[7,8]] },
+                       { "object_points": [], "image_points": [] } ] }"#;
+        let obs = Observations::from_json(text).unwrap();
+        assert_eq!(obs.image_size, Some(ImageSize::new(640, 480)));
+        assert_eq!(obs.views[0].name, "a.png");
+        assert_eq!(obs.views[1].name, "view 1");
+        assert_eq!(obs.views[0].image_points[3], Point2::new(7.0, 8.0));
+        let again = Observations::from_json(&obs.to_json_value().to_string()).unwrap();
+        assert_eq!(again, obs);
+    }
+
+    #[test]
+    fn malformed_files_are_errors_with_positions() {
+        let err = Observations::from_json(r#"{ "views": [ { "object_points": [[0, 0]] } ] }"#)
+            .unwrap_err();
+        assert!(err.to_string().contains("line"), "{err}");
+        assert!(Observations::read("/nonexistent/file.json").is_err());
+    }
+
+    #[test]
+    fn view_checks_name_the_fault() {
+        let square = |z: f64| View {
+            name: "v".into(),
+            object_points: vec![
+                Point3::new(0.0, 0.0, 0.0),
+                Point3::new(1.0, 0.0, 0.0),
+                Point3::new(0.0, 1.0, z),
+                Point3::new(1.0, 1.0, 0.0),
+            ],
+            image_points: vec![Point2::new(0.0, 0.0); 4],
+        };
+        assert!(check_view(0, &square(0.0)).is_ok());
+        assert_eq!(
+            check_view(3, &square(0.5)),
+            Err(CalibrationError::NotPlanar {
+                view: 3,
+                point: 2,
+                z: 0.5
+            })
+        );
+        let mut v = square(0.0);
+        v.image_points.pop();
+        assert!(matches!(
+            check_view(1, &v),
+            Err(CalibrationError::PointCountMismatch {
+                view: 1,
+                object: 4,
+                image: 3
+            })
+        ));
+        v.object_points.pop();
+        assert!(matches!(
+            check_view(1, &v),
+            Err(CalibrationError::TooFewPoints { view: 1, found: 3 })
+        ));
+        let mut v = square(0.0);
+        v.image_points[1].y = f64::NAN;
+        assert!(matches!(
+            check_view(2, &v),
+            Err(CalibrationError::NonFinite {
+                view: 2,
+                point: 1,
+                kind: PointKind::Image
+            })
+        ));
+        let mut v = square(0.0);
+        v.object_points[0].x = f64::INFINITY;
+        assert!(matches!(
+            check_view(2, &v),
+            Err(CalibrationError::NonFinite {
+                view: 2,
+                point: 0,
+                kind: PointKind::Object
+            })
+        ));
+    }
+}

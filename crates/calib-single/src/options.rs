@@ -1,0 +1,66 @@
+//! Options of the single-camera calibration.
+
+use crate::init::FocalInit;
+use camera_model::{Intrinsics, RotationKind};
+use homography::RefineOptions;
+use lm_solver::SolverOptions;
+
+/// What to estimate and how. `CalibrationOptions::default()` estimates everything (fx, fy, cx, cy,
+/// k1, k2, p1, p2 and the poses) from the closed-form start, like OpenCV's `calibrateCamera` with
+/// `CALIB_FIX_K3`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationOptions {
+    /// Hold the principal point at its initial value (the image centre, or the guess). With a
+    /// single view it is always held (it is not observable from one view).
+    pub fix_principal_point: bool,
+    /// Hold `fx / fy` at its initial value (1 from the closed-form start): only `fx` is estimated
+    /// and `fy = fx / ratio`.
+    pub fix_aspect_ratio: bool,
+    /// Hold the tangential distortion coefficients at zero.
+    pub zero_tangential_distortion: bool,
+    /// Indices of distortion coefficients (in the model's order, e.g. `[k1, k2, p1, p2]`) to hold
+    /// at their initial value (zero unless a guess is given).
+    pub fixed_distortion: Vec<usize>,
+    /// Start from these intrinsics instead of the closed-form guess.
+    pub intrinsic_guess: Option<Intrinsics>,
+    /// Initial distortion coefficients (default: all zero).
+    pub distortion_guess: Option<Vec<f64>>,
+    /// Rotation parameterization of the poses during the optimization (Euler X-Y-Z by default).
+    pub rotation: RotationKind,
+    /// How the closed-form focal length is solved.
+    pub focal_init: FocalInit,
+    /// Skip views that fail the input checks or whose homography cannot be estimated, and list
+    /// them in the result, instead of failing.
+    pub skip_bad_views: bool,
+    /// Homography refinement settings.
+    pub homography: RefineOptions,
+    /// Levenberg-Marquardt settings.
+    pub solver: SolverOptions,
+}
+
+impl Default for CalibrationOptions {
+    fn default() -> Self {
+        Self {
+            fix_principal_point: false,
+            fix_aspect_ratio: false,
+            zero_tangential_distortion: false,
+            fixed_distortion: Vec::new(),
+            intrinsic_guess: None,
+            distortion_guess: None,
+            rotation: RotationKind::EulerXyz,
+            focal_init: FocalInit::Bouguet,
+            skip_bad_views: false,
+            homography: RefineOptions::default(),
+            solver: default_solver_options(),
+        }
+    }
+}
+
+/// The solver settings calibration uses by default: the library defaults, which converge to the
+/// rounding level of the cost (relative change 1e-12), with at most 100 step attempts.
+pub fn default_solver_options() -> SolverOptions {
+    SolverOptions {
+        max_iterations: 100,
+        ..SolverOptions::default()
+    }
+}
