@@ -30,6 +30,9 @@ def machine():
             if m:
                 cpu = m.group(1).strip()
                 break
+        mhz = re.search(r"^cpu MHz\s*:\s*([\d.]+)", text, re.M)
+        if cpu and mhz:
+            cpu += f" ({float(mhz.group(1)):.0f} MHz)"
         phys = {(p, c) for p, c in re.findall(
             r"physical id\s*:\s*(\d+)[\s\S]*?core id\s*:\s*(\d+)", text)}
     except OSError:
@@ -104,7 +107,8 @@ def main():
     ap.add_argument("out_dir")
     ap.add_argument("manifest")
     ap.add_argument("--command", required=True)
-    ap.add_argument("--calib-rev", default="unknown")
+    ap.add_argument("--calib-rev", default="unknown", help="git revision of the calib sources")
+    ap.add_argument("--note", action="append", default=[], help="extra header line (repeatable)")
     a = ap.parse_args()
 
     rows = []
@@ -121,50 +125,67 @@ def main():
         ours = []
         for p in sorted(glob.glob(base + ".calib.r*.json")):
             d = load_json(p)
-            if d is not None:
+            if (isinstance(d, dict) and isinstance(d.get("rms"), (int, float))
+                    and isinstance(d.get("elapsed_seconds"), (int, float))):
                 ours.append(d)
         status = None
         if os.path.exists(base + ".status"):
-            status = open(base + ".status").read().strip()
+            lines = [x.strip() for x in open(base + ".status") if x.strip()]
+            status = "; ".join(lines) or None
         cv_t = cv.get("seconds_median") if cv else None
         cv_rms = cv.get("rms") if cv else None
-        our_ts = [d["elapsed_seconds"] for d in ours if isinstance(d.get("elapsed_seconds"), (int, float))]
+        our_ts = [d["elapsed_seconds"] for d in ours]
         our_t = statistics.median(our_ts) if our_ts else None
-        our_rms_all = [d["rms"] for d in ours if isinstance(d.get("rms"), (int, float))]
+        our_rms_all = [d["rms"] for d in ours]
         our_rms = our_rms_all[0] if our_rms_all else None
         if our_rms_all and max(our_rms_all) - min(our_rms_all) > 1e-9:
             notes.append(f"{name}: calib rms varies between repeats "
                          f"({min(our_rms_all):.10f} .. {max(our_rms_all):.10f}).")
         ratio = f"{cv_t / our_t:.2f}x" if cv_t and our_t else "-"
         diff = f"{our_rms - cv_rms:+.2e}" if cv_rms is not None and our_rms is not None else "-"
+        cv_rms64 = cv.get("rms_f64") if cv else None
+        diff64 = (f"{our_rms - cv_rms64:+.2e}" if cv_rms64 is not None and our_rms is not None
+                  else "n/a" if cv and cv.get("rms_f64_skipped") else "-")
         rows.append([
             name, shape_of(obs, kind, cv),
             fmt_time(cv_t) if cv else "FAILED" if status and "opencv" in status else "-",
             fmt_time(our_t) if our_t is not None else "FAILED" if status and "calib" in status else "-",
-            ratio, fmt_rms(cv_rms), fmt_rms(our_rms), diff,
+            ratio, fmt_rms(cv_rms), fmt_rms(our_rms), diff, diff64,
         ])
         rep_cv = cv.get("repeats") if cv else 0
         rep_note = f"{name}: {rep_cv} OpenCV / {len(our_ts)} calib repeats"
         if status:
             rep_note += f"; {status}"
+        if cv and cv.get("rms_f64_skipped"):
+            rep_note += f"; no float64 re-evaluation: {cv['rms_f64_skipped']}"
+        if cv and cv.get("warnings"):
+            rep_note += "; OpenCV: " + "; ".join(cv["warnings"])
         notes.append(rep_note)
 
     m = machine()
     head = ["problem", "views x points", "OpenCV time", "calib time", "ratio (OpenCV/calib)",
-            "OpenCV RMS (px)", "calib RMS (px)", "RMS difference (calib - OpenCV)"]
-    align = [":--", ":--", "--:", "--:", "--:", "--:", "--:", "--:"]
+            "OpenCV RMS (px)", "calib RMS (px)", "RMS difference (calib - OpenCV)",
+            "calib - OpenCV solution in float64 (px)"]
+    align = [":--", ":--", "--:", "--:", "--:", "--:", "--:", "--:", "--:"]
     out = []
     out.append("# Peer comparison: OpenCV vs calib")
     out.append("")
     out.append(f"- Date: {datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}")
     out.append(f"- Machine: {m['cpu']}; {m['cores']}; {m['os']}")
     out.append(f"- OpenCV: opencv-python-headless {cv_version or '?'} (cv2.setNumThreads(1), flags "
-               "CALIB_FIX_K3, default criteria); calib: "
+               "CALIB_FIX_K3, default criteria); calib: git "
                f"{a.calib_rev} (`--threads 1`, RAYON_NUM_THREADS=1)")
+    for n in a.note:
+        out.append(f"- {n}")
     out.append(f"- Command: `{a.command}`")
     out.append("- Times: median solve time. OpenCV = perf_counter around the cv2 call; calib = "
                "`elapsed_seconds` from its result JSON, one process per repeat. "
                "Neither includes file reading or process start.")
+    out.append("- RMS: OpenCV RMS is cv2's return value, computed on the float32 copies of the points "
+               "that OpenCV requires; the last column compares calib's RMS with OpenCV's solution "
+               "re-evaluated on the original float64 points (untimed), which is the like-for-like "
+               "comparison: negative = calib's fit is better. Differences of order 1e-7 in the "
+               "'RMS difference' column are float32 rounding, not solver quality.")
     out.append("")
     out.append("| " + " | ".join(head) + " |")
     out.append("|" + "|".join(align) + "|")

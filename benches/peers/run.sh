@@ -4,9 +4,9 @@
 #
 # Usage: benches/peers/run.sh [options]
 #   --quick             skip the 1000-view problems (the 1000x400 stereo OpenCV run takes minutes)
-#   --repeats N         repeats for every problem (default: 5, or 1 for 1000-view problems;
-#                       see --repeats-large)
-#   --repeats-large N   repeats for the 1000-view problems (default 1)
+#   --repeats N         repeats for every problem (default: 5; for the 1000-view problems
+#                       2 single / 1 stereo, see --repeats-large)
+#   --repeats-large N   repeats for the 1000-view problems (default 2 single, 1 stereo)
 #   --seed S            base seed for `calib synth` (default 1; problem k uses S + k)
 #   --only REGEX        run only problems whose name matches REGEX (grep -E)
 #   --timeout SECONDS   give up on one OpenCV or calib run after SECONDS (default: no limit)
@@ -23,7 +23,7 @@ die() { echo "run.sh: error: $*" >&2; exit 2; }
 
 QUICK=0
 REPEATS=""
-REPEATS_LARGE=1
+REPEATS_LARGE=""
 SEED=1
 ONLY=""
 TIMEOUT=""
@@ -54,7 +54,7 @@ while [[ $# -gt 0 ]]; do
 done
 is_posint() { [[ "$1" =~ ^[1-9][0-9]*$ ]]; }
 [[ -z "$REPEATS" ]] || is_posint "$REPEATS" || die "--repeats must be a positive integer"
-is_posint "$REPEATS_LARGE" || die "--repeats-large must be a positive integer"
+[[ -z "$REPEATS_LARGE" ]] || is_posint "$REPEATS_LARGE" || die "--repeats-large must be a positive integer"
 [[ "$SEED" =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer"
 [[ -z "$TIMEOUT" ]] || is_posint "$TIMEOUT" || die "--timeout must be a positive integer (seconds)"
 if [[ -n "$CALIB" ]]; then
@@ -107,25 +107,6 @@ if [[ -n "$(git status --porcelain -- crates Cargo.toml Cargo.lock 2>/dev/null)"
     CALIB_REV+="+dirty"
 fi
 
-# Does the binary have subcommand $1? `calib SUB --help` succeeding is enough; otherwise look for
-# the word in the top-level help.
-has_subcommand() {
-    local sub="$1" help
-    if "$CALIB" "$sub" --help >/dev/null 2>&1; then return 0; fi
-    help="$({ "$CALIB" --help; "$CALIB" help; } 2>&1 || true)"
-    grep -qwE -- "$sub" <<<"$help"
-}
-needed=(single stereo)
-[[ $PYSYNTH -eq 1 ]] || needed=(synth "${needed[@]}")
-missing=()
-for sub in "${needed[@]}"; do has_subcommand "$sub" || missing+=("$sub"); done
-if [[ ${#missing[@]} -gt 0 ]]; then
-    die "the calib binary ($CALIB) lacks the subcommand(s): ${missing[*]}
-       ('calib SUB --help' failed and 'calib --help' does not mention them).
-       This harness needs: calib synth {single|stereo} ..., calib single FILE -o OUT --threads 1 --quiet,
-       calib stereo FILE -o OUT --threads 1 --quiet.$([[ " ${missing[*]} " == *" synth "* ]] && printf '\n       To test the harness without `calib synth`, pass --python-synth.')"
-fi
-
 # ---------------------------------------------------------------- 3. problems
 # name kind views board seed-offset ("-" board = bundled real data file in column 3)
 PROBLEMS=(
@@ -146,19 +127,64 @@ run_limited() {  # run "$@" under the optional --timeout
     if [[ -n "$TIMEOUT" ]]; then timeout "$TIMEOUT" "$@"; else "$@"; fi
 }
 
-MANIFEST=$OUT/manifest.tsv
-: > "$MANIFEST"
+exit_text() {  # describe exit status $1 (always succeeds)
+    if [[ $1 -eq 124 && -n "$TIMEOUT" ]]; then echo "timed out after ${TIMEOUT}s"
+    else echo "exit status $1"; fi
+}
+
 SELECTED=()
-echo "== generating problems in $OUT ($([[ $PYSYNTH -eq 1 ]] && echo 'make_synthetic.py, TEST MODE' || echo 'calib synth'))"
+declare -A NEED=()   # calib (sub)commands the selected problems need
 for p in "${PROBLEMS[@]}"; do
     read -r name kind views board off <<<"$p"
     if [[ -n "$ONLY" ]] && ! grep -qE -- "$ONLY" <<<"$name"; then continue; fi
+    if [[ "$board" != "-" && $QUICK -eq 1 && $views -ge 1000 ]]; then
+        echo "  skip $name (--quick)"; continue
+    fi
+    SELECTED+=("$p")
+    NEED["$kind"]=1
+    [[ "$board" = "-" || $PYSYNTH -eq 1 ]] || NEED["synth $kind"]=1
+done
+[[ ${#SELECTED[@]} -gt 0 ]] || die "no problem selected (check --only / --quick)"
+
+# Does the binary have the (sub)command "$@" (e.g. "stereo" or "synth single")? `calib ... --help`
+# succeeding is enough; otherwise look for it in the command list of the parent's help, where
+# clap-style help lists one command per line, indented.
+has_command() {
+    if "$CALIB" "$@" --help >/dev/null 2>&1; then return 0; fi
+    local parent=("${@:1:$#-1}") last="${!#}" help
+    help="$({ "$CALIB" "${parent[@]}" --help; "$CALIB" help "${parent[@]}"; } 2>&1 || true)"
+    grep -qE -- "^[[:space:]]+${last}([[:space:]]|,|$)" <<<"$help"
+}
+missing=()
+for cmd in "single" "stereo" "synth single" "synth stereo"; do
+    [[ -n "${NEED[$cmd]:-}" ]] || continue
+    # shellcheck disable=SC2086  # split "synth single" into words on purpose
+    has_command $cmd || missing+=("'calib $cmd'")
+done
+if [[ ${#missing[@]} -gt 0 ]]; then
+    hint=""
+    if [[ " ${missing[*]} " == *"stereo'"* ]]; then
+        hint+=$'\n'"       To run only the single-camera problems: --only '^(real_left|single_)'."
+    fi
+    if [[ " ${missing[*]} " == *"synth"* ]]; then
+        hint+=$'\n'"       To test the harness without \`calib synth\`: --python-synth (files then differ from calib synth's)."
+    fi
+    die "the calib binary ($CALIB) lacks: ${missing[*]}
+       ('calib ... --help' failed and the parent's help does not list it.)
+       The harness needs: calib synth {single|stereo} --views M --board CxR --noise 0.2 --seed S -o FILE,
+       calib {single|stereo} FILE -o RESULT.json --threads 1 --quiet.$hint"
+fi
+
+MANIFEST=$OUT/manifest.tsv
+: > "$MANIFEST"
+echo "== generating problems in $OUT ($([[ $PYSYNTH -eq 1 ]] && echo 'make_synthetic.py, TEST MODE' || echo 'calib synth'))"
+for p in "${SELECTED[@]}"; do
+    read -r name kind views board off <<<"$p"
     if [[ "$board" = "-" ]]; then
         file="$views"
         [[ -f "$file" ]] || die "bundled data file $file is missing"
         large=0
     else
-        if [[ $QUICK -eq 1 && $views -ge 1000 ]]; then echo "  skip $name (--quick)"; continue; fi
         file=$OUT/$name.obs.json
         seed=$((SEED + off))
         if [[ $PYSYNTH -eq 1 ]]; then
@@ -169,7 +195,7 @@ for p in "${PROBLEMS[@]}"; do
         gen+=(--views "$views" --board "$board" --noise 0.2 --seed "$seed" -o "$file")
         echo "  ${gen[*]#"$ROOT/"}"
         rm -f "$file"
-        if ! "${gen[@]}" >"$OUT/$name.synth.log" 2>&1; then
+        if ! "${gen[@]}" >"$OUT/$name.synth.log" 2>&1 </dev/null; then
             cat "$OUT/$name.synth.log" >&2
             die "generating $name failed: ${gen[*]}"
         fi
@@ -177,18 +203,16 @@ for p in "${PROBLEMS[@]}"; do
         large=$([[ $views -ge 1000 ]] && echo 1 || echo 0)
     fi
     if [[ -n "$REPEATS" ]]; then reps=$REPEATS
-    elif [[ $large -eq 1 ]]; then reps=$REPEATS_LARGE
+    elif [[ $large -eq 1 ]]; then reps=${REPEATS_LARGE:-$([[ $kind = single ]] && echo 2 || echo 1)}
     else reps=5; fi
     printf '%s\t%s\t%s\t%s\n' "$name" "$kind" "$file" "$reps" >>"$MANIFEST"
-    SELECTED+=("$name")
 done
-[[ ${#SELECTED[@]} -gt 0 ]] || die "no problem selected (check --only / --quick)"
 
 # ---------------------------------------------------------------- 4. run both tools
 FAILED=0
 while IFS=$'\t' read -r -u 3 name kind file reps; do
     base=$OUT/$name
-    rm -f "$base".opencv.json "$base".opencv.log "$base".calib.r*.json "$base".calib.log "$base".status
+    rm -f "$base".opencv.json "$base".opencv.log "$base".calib.r*.json* "$base".calib.log "$base".status
     echo "== $name ($kind, $reps repeat(s))"
 
     echo "  opencv_peer.py $kind $file --repeats $reps"
@@ -199,7 +223,7 @@ while IFS=$'\t' read -r -u 3 name kind file reps; do
     else
         rc=$?
         rm -f "$base.opencv.json.tmp"
-        msg="opencv failed (exit $rc$([[ $rc -eq 124 && -n "$TIMEOUT" ]] && echo ", timeout ${TIMEOUT}s"))"
+        msg="opencv failed ($(exit_text "$rc"))"
         echo "  $msg; see $base.opencv.log" >&2
         tail -n 5 "$base.opencv.log" >&2 || true
         echo "$msg" >>"$base.status"
@@ -212,7 +236,7 @@ while IFS=$'\t' read -r -u 3 name kind file reps; do
         [[ $r -gt 1 ]] || echo "  calib $kind $file -o $res --threads 1 --quiet   (x$reps)"
         if run_limited "${cmd[@]}" >>"$base.calib.log" 2>&1 </dev/null; then :; else
             rc=$?
-            msg="calib failed (exit $rc$([[ $rc -eq 124 && -n "$TIMEOUT" ]] && echo ", timeout ${TIMEOUT}s"))"
+            msg="calib failed ($(exit_text "$rc"))"
             echo "  $msg: ${cmd[*]}" >&2
             tail -n 10 "$base.calib.log" >&2 || true
             echo "$msg" >>"$base.status"
@@ -223,6 +247,7 @@ while IFS=$'\t' read -r -u 3 name kind file reps; do
         if ! "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); assert isinstance(d["elapsed_seconds"], (int, float)) and isinstance(d["rms"], (int, float))' "$res" 2>/dev/null; then
             echo "  calib result $res lacks numeric 'rms' / 'elapsed_seconds' fields" >&2
             echo "calib result lacks rms/elapsed_seconds" >>"$base.status"
+            mv "$res" "$res.invalid"
             FAILED=1
             break
         fi
@@ -240,9 +265,10 @@ done 3<"$MANIFEST"
 echo
 echo "== results"
 echo
-"$PY" "$PEERS/report.py" "$OUT" "$MANIFEST" --command "$COMMAND" \
-    --calib-rev "calib $CALIB_REV$([[ $PYSYNTH -eq 1 ]] && echo ', problems from make_synthetic.py (TEST MODE)')" \
-    | tee "$OUT/results.md"
+notes=(--note "calib binary: ${CALIB#"$ROOT/"}")
+[[ $PYSYNTH -eq 1 ]] && notes+=(--note "TEST MODE: problems generated by make_synthetic.py, not calib synth")
+"$PY" "$PEERS/report.py" "$OUT" "$MANIFEST" --command "$COMMAND" --calib-rev "$CALIB_REV" \
+    "${notes[@]}" | tee "$OUT/results.md"
 echo
 echo "(written to $OUT/results.md; per-problem JSON and logs in $OUT/)"
 if [[ $FAILED -ne 0 ]]; then

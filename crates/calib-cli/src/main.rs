@@ -1,5 +1,86 @@
-//! The `calib` command (work in progress: see issue 4).
-fn main() {
-    eprintln!("calib: not implemented yet");
-    std::process::exit(2);
+//! The `calib` command: a thin front end over the calibration crates.
+//!
+//! Exit codes: 0 success; 1 bad input or failed calibration (one-line message on stderr); 2 bad
+//! command line (from the argument parser).
+
+mod single;
+mod synth;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Camera calibration from detected planar-target corners.
+#[derive(Parser)]
+#[command(name = "calib", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Calibrate one camera from an observation file (JSON, see docs/formats.md).
+    Single(single::SingleArgs),
+    /// Write a synthetic observation file with known truth.
+    #[command(subcommand)]
+    Synth(synth::SynthCommand),
+}
+
+/// A failure to report as one line on stderr.
+pub struct Failure(pub String);
+
+impl<E: std::fmt::Display> From<E> for Failure {
+    fn from(e: E) -> Self {
+        Failure(e.to_string())
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Single(args) => single::run(&args),
+        Command::Synth(command) => synth::run(&command),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure(message)) => {
+            eprintln!("calib: {message}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Writes JSON to a file, or to stdout for "-".
+pub fn write_json(path: &str, value: &serde_json::Value) -> Result<(), Failure> {
+    let text = serde_json::to_string_pretty(value)? + "\n";
+    if path == "-" {
+        print!("{text}");
+        Ok(())
+    } else {
+        std::fs::write(path, text).map_err(|e| Failure(format!("cannot write {path}: {e}")))
+    }
+}
+
+/// Parses `a,b,c` into numbers.
+pub fn parse_list(text: &str, expected: usize, what: &str) -> Result<Vec<f64>, Failure> {
+    let values: Result<Vec<f64>, _> = text.split(',').map(|v| v.trim().parse::<f64>()).collect();
+    match values {
+        Ok(v) if v.len() == expected && v.iter().all(|x| x.is_finite()) => Ok(v),
+        _ => Err(Failure(format!(
+            "{what}: expected {expected} comma-separated numbers, got '{text}'"
+        ))),
+    }
+}
+
+/// Parses `WxH`.
+pub fn parse_size(text: &str, what: &str) -> Result<(u32, u32), Failure> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    if let [a, b] = parts.as_slice()
+        && let (Ok(a), Ok(b)) = (a.trim().parse(), b.trim().parse())
+    {
+        return Ok((a, b));
+    }
+    Err(Failure(format!(
+        "{what}: expected WIDTHxHEIGHT, got '{text}'"
+    )))
 }

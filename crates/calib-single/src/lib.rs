@@ -1,7 +1,7 @@
 //! Single-camera calibration from views of a planar target.
 //!
 //! Given, for each view, the board points (on the plane `Z = 0`) and the pixels where they were
-//! detected, [`calibrate`] estimates the pinhole intrinsics `fx, fy, cx, cy`, the Brown-Conrady
+//! detected, [`calibrate()`] estimates the pinhole intrinsics `fx, fy, cx, cy`, the Brown-Conrady
 //! distortion `k1, k2, p1, p2` and one board-to-camera pose per view, with standard deviations for
 //! all of them:
 //!

@@ -74,7 +74,7 @@ pub enum ReadError {
     /// The file is not valid observation JSON.
     #[error("{path}: {source}")]
     Json {
-        /// The path (or "<string>").
+        /// The path (or `<string>` for text parsed from memory).
         path: String,
         /// The parse error, with line and column.
         source: serde_json::Error,

@@ -1,0 +1,166 @@
+//! `calib single`: calibrate one camera.
+
+use crate::{Failure, parse_list, write_json};
+use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
+use camera_model::{BrownConrady, Intrinsics, LensDistortion, RotationKind};
+use clap::{Args, ValueEnum};
+use lm_solver::{DampingPolicy, Termination};
+
+/// Options shared by the single and stereo commands.
+#[derive(Args, Debug, Clone)]
+pub struct CameraArgs {
+    /// Hold the principal point at the image centre (or at --guess).
+    #[arg(long)]
+    pub fix_principal_point: bool,
+    /// Hold fx/fy at its initial value (1, or the ratio of --guess).
+    #[arg(long)]
+    pub fix_aspect_ratio: bool,
+    /// Hold the tangential distortion p1, p2 at zero.
+    #[arg(long)]
+    pub zero_tangential: bool,
+    /// Hold these distortion coefficients at their initial value, e.g. --fix k2 or --fix k1,k2.
+    #[arg(long, value_name = "NAMES")]
+    pub fix: Option<String>,
+    /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
+    #[arg(long, value_name = "FX,FY,CX,CY")]
+    pub guess: Option<String>,
+    /// Initial distortion coefficients k1,k2,p1,p2 (default zero).
+    #[arg(long, value_name = "K1,K2,P1,P2")]
+    pub distortion_guess: Option<String>,
+    /// Rotation parameterization of the poses during the optimization.
+    #[arg(long, value_enum, default_value_t = Rotation::Euler)]
+    pub rotation: Rotation,
+    /// How the closed-form focal length is solved.
+    #[arg(long, value_enum, default_value_t = FocalMethod::Bouguet)]
+    pub focal_init: FocalMethod,
+    /// Skip views that fail the checks (listed in the result) instead of stopping.
+    #[arg(long)]
+    pub skip_bad_views: bool,
+    /// Maximum Levenberg-Marquardt step attempts.
+    #[arg(long, default_value_t = 100)]
+    pub max_iterations: usize,
+    /// Damping policy of Levenberg-Marquardt.
+    #[arg(long, value_enum, default_value_t = Damping::Additive)]
+    pub damping: Damping,
+    /// Threads (0 = all cores). The result does not depend on it.
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+pub enum Rotation {
+    /// Euler angles X-Y-Z (R = Rz Ry Rx).
+    Euler,
+    /// Rotation vector (Rodrigues).
+    AxisAngle,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+pub enum FocalMethod {
+    /// x = <b,b>/<a,b> (Bouguet's toolbox).
+    Bouguet,
+    /// Least squares.
+    LeastSquares,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy)]
+pub enum Damping {
+    /// lambda I, lambda0 = 0.01, factor 10 (the specification's).
+    Additive,
+    /// lambda diag(J^T J) with Nielsen's update (Ceres-like).
+    Marquardt,
+}
+
+impl CameraArgs {
+    /// The library options these arguments describe.
+    pub fn options(&self) -> Result<CalibrationOptions, Failure> {
+        let mut options = CalibrationOptions {
+            fix_principal_point: self.fix_principal_point,
+            fix_aspect_ratio: self.fix_aspect_ratio,
+            zero_tangential_distortion: self.zero_tangential,
+            skip_bad_views: self.skip_bad_views,
+            rotation: match self.rotation {
+                Rotation::Euler => RotationKind::EulerXyz,
+                Rotation::AxisAngle => RotationKind::AxisAngle,
+            },
+            focal_init: match self.focal_init {
+                FocalMethod::Bouguet => FocalInit::Bouguet,
+                FocalMethod::LeastSquares => FocalInit::LeastSquares,
+            },
+            ..Default::default()
+        };
+        if let Some(names) = &self.fix {
+            for name in names.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+                let index = BrownConrady::PARAM_NAMES
+                    .iter()
+                    .position(|n| *n == name)
+                    .ok_or_else(|| {
+                        Failure(format!(
+                            "--fix: unknown coefficient '{name}' (expected one of {})",
+                            BrownConrady::PARAM_NAMES.join(", ")
+                        ))
+                    })?;
+                options.fixed_distortion.push(index);
+            }
+        }
+        if let Some(text) = &self.guess {
+            let v = parse_list(text, 4, "--guess")?;
+            options.intrinsic_guess = Some(Intrinsics::new(v[0], v[1], v[2], v[3]));
+        }
+        if let Some(text) = &self.distortion_guess {
+            options.distortion_guess = Some(parse_list(text, 4, "--distortion-guess")?);
+        }
+        options.solver.max_iterations = self.max_iterations;
+        options.solver.num_threads = self.threads;
+        options.solver.damping = match self.damping {
+            Damping::Additive => DampingPolicy::additive(),
+            Damping::Marquardt => DampingPolicy::marquardt(),
+        };
+        Ok(options)
+    }
+}
+
+/// Arguments of `calib single`.
+#[derive(Args, Debug)]
+pub struct SingleArgs {
+    /// Observation file (JSON).
+    pub observations: String,
+    /// Write the full result as JSON to this file ("-" for stdout).
+    #[arg(short, long, value_name = "RESULT.json")]
+    pub output: Option<String>,
+    /// Do not print the summary.
+    #[arg(short, long)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+}
+
+/// A warning line for a solve that stopped without meeting a convergence criterion.
+pub fn termination_warning(termination: &Termination) -> Option<String> {
+    (!termination.is_converged()).then(|| {
+        format!("warning: the optimization {termination}; the result may not be at the minimum")
+    })
+}
+
+pub fn run(args: &SingleArgs) -> Result<(), Failure> {
+    let observations = Observations::read(&args.observations)?;
+    let options = args.camera.options()?;
+    let result = calibrate(&observations, &options)
+        .map_err(|e| Failure(format!("{}: {e}", args.observations)))?;
+    if let Termination::NumericalFailure(why) = &result.solver.termination {
+        return Err(Failure(format!(
+            "{}: calibration failed: {why}",
+            args.observations
+        )));
+    }
+    if !args.quiet {
+        print!("{}", result.summary());
+    }
+    if let Some(warning) = termination_warning(&result.solver.termination) {
+        eprintln!("calib: {warning}");
+    }
+    if let Some(path) = &args.output {
+        write_json(path, &result.to_json())?;
+    }
+    Ok(())
+}

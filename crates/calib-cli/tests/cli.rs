@@ -1,0 +1,151 @@
+//! The `calib` binary as a user runs it.
+
+use std::process::Command;
+
+fn calib() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_calib"))
+}
+
+fn data(path: &str) -> String {
+    format!("{}/../../data/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn temp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("calib-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn single_on_real_data_prints_a_summary_and_writes_json() {
+    let out = temp("left.json");
+    let run = calib()
+        .args(["single", &data("sourishg1/left.json"), "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let summary = String::from_utf8(run.stdout).unwrap();
+    assert!(
+        summary.contains("focal length")
+            && summary.contains("+-")
+            && summary.contains("worst views"),
+        "{summary}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let rms = json["rms"].as_f64().unwrap();
+    assert!(rms > 0.1 && rms < 0.2, "{rms}");
+    assert_eq!(json["views"].as_array().unwrap().len(), 29);
+    assert!(json["elapsed_seconds"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn bad_input_exits_non_zero_with_one_line() {
+    let run = calib()
+        .args(["single", "/nonexistent/obs.json"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("calib: "), "{err}");
+
+    // A view with three points.
+    let bad = temp("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"image_size":[640,480],"views":[{"image":"a","object_points":[[0,0,0],[1,0,0],[0,1,0]],"image_points":[[1,1],[2,1],[1,2]]}]}"#,
+    )
+    .unwrap();
+    let run = calib().arg("single").arg(&bad).output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(
+        err.contains("view 0") && err.contains("at least 4"),
+        "{err}"
+    );
+
+    let run = calib()
+        .args(["single", &data("sourishg1/left.json"), "--fix", "k7"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let run = calib().args(["single"]).output().unwrap();
+    assert_eq!(
+        run.status.code(),
+        Some(2),
+        "usage errors come from the argument parser"
+    );
+}
+
+#[test]
+fn synth_then_calibrate_recovers_the_truth() {
+    let file = temp("synth.json");
+    let run = calib()
+        .args([
+            "synth", "single", "--views", "15", "--noise", "0.1", "--seed", "4", "-o",
+        ])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let result = calib()
+        .arg("single")
+        .arg(&file)
+        .args(["--quiet", "--threads", "1", "-o", "-"])
+        .output()
+        .unwrap();
+    assert!(result.status.success());
+    assert!(
+        result.stdout.starts_with(b"{"),
+        "quiet mode prints only the JSON"
+    );
+    let json: serde_json::Value = serde_json::from_slice(&result.stdout).unwrap();
+    let input: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let (fx, truth) = (
+        json["camera"]["fx"].as_f64().unwrap(),
+        input["truth"]["fx"].as_f64().unwrap(),
+    );
+    let sigma = json["std"]["fx"].as_f64().unwrap();
+    assert!(
+        (fx - truth).abs() < 4.0 * sigma,
+        "{fx} vs {truth} (sigma {sigma})"
+    );
+}
+
+#[test]
+fn options_reach_the_library() {
+    let run = calib()
+        .args([
+            "single",
+            &data("sourishg1/left.json"),
+            "--fix-principal-point",
+            "--zero-tangential",
+            "--quiet",
+            "-o",
+            "-",
+        ])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(json["camera"]["cx"].as_f64().unwrap(), 319.5);
+    assert_eq!(json["camera"]["distortion"]["p1"].as_f64().unwrap(), 0.0);
+    let fixed: Vec<&str> = json["fixed_parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(fixed, ["cx", "cy", "p1", "p2"]);
+}
