@@ -4,6 +4,7 @@
 //! command line (from the argument parser).
 
 mod single;
+mod stereo;
 mod synth;
 
 use clap::{Parser, Subcommand};
@@ -21,6 +22,8 @@ struct Cli {
 enum Command {
     /// Calibrate one camera from an observation file (JSON, see docs/formats.md).
     Single(single::SingleArgs),
+    /// Calibrate a stereo rig from a stereo observation file (JSON, see docs/formats.md).
+    Stereo(stereo::StereoArgs),
     /// Write a synthetic observation file with known truth.
     #[command(subcommand)]
     Synth(synth::SynthCommand),
@@ -39,6 +42,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Single(args) => single::run(&args),
+        Command::Stereo(args) => stereo::run(&args),
         Command::Synth(command) => synth::run(&command),
     };
     match result {

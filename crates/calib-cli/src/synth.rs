@@ -3,14 +3,41 @@
 use crate::{Failure, parse_list, parse_size, write_json};
 use calib_single::ImageSize;
 use calib_single::synthetic::{SyntheticConfig, generate};
-use camera_model::{BrownConrady, Intrinsics, Pose};
+use calib_stereo::synthetic::{SyntheticStereoConfig, generate_stereo};
+use camera_model::{AxisAngle, BrownConrady, Intrinsics, Pose, RotationParameterization};
 use clap::{Args, Subcommand};
+use nalgebra::Vector3;
 use serde_json::json;
 
 #[derive(Subcommand, Debug)]
 pub enum SynthCommand {
     /// One camera.
     Single(SynthArgs),
+    /// A stereo rig (the camera settings above describe the left camera).
+    Stereo(SynthStereoArgs),
+}
+
+/// Settings of synthetic stereo data.
+#[derive(Args, Debug)]
+pub struct SynthStereoArgs {
+    #[command(flatten)]
+    pub left: SynthArgs,
+    /// True right intrinsics fx,fy,cx,cy (default 810,805,325,235).
+    #[arg(long, value_name = "FX,FY,CX,CY")]
+    pub right_intrinsics: Option<String>,
+    /// True right distortion k1,k2,p1,p2.
+    #[arg(
+        long,
+        value_name = "K1,K2,P1,P2",
+        default_value = "-0.18,0.04,-0.0005,0.0008"
+    )]
+    pub right_distortion: String,
+    /// Right image size WIDTHxHEIGHT (default: the left one).
+    #[arg(long)]
+    pub right_image: Option<String>,
+    /// True rig: rotation vector and translation rx,ry,rz,tx,ty,tz (X_right = R X_left + T).
+    #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ")]
+    pub rig: Option<String>,
 }
 
 /// Settings of the synthetic data.
@@ -99,8 +126,75 @@ pub fn truth_json(config: &SyntheticConfig, poses: &[Pose]) -> serde_json::Value
     })
 }
 
+fn stereo_config(args: &SynthStereoArgs) -> Result<SyntheticStereoConfig, Failure> {
+    let left = args.left.config()?;
+    let defaults = SyntheticStereoConfig::default();
+    let right_image_size = match &args.right_image {
+        Some(text) => {
+            let (w, h) = parse_size(text, "--right-image")?;
+            ImageSize::new(w, h)
+        }
+        None => left.image_size,
+    };
+    let right_intrinsics = match &args.right_intrinsics {
+        Some(text) => {
+            let v = parse_list(text, 4, "--right-intrinsics")?;
+            Intrinsics::new(v[0], v[1], v[2], v[3])
+        }
+        None => defaults.right_intrinsics,
+    };
+    let d = parse_list(&args.right_distortion, 4, "--right-distortion")?;
+    let rig = match &args.rig {
+        Some(text) => {
+            let v = parse_list(text, 6, "--rig")?;
+            Pose::new(
+                AxisAngle::matrix(&Vector3::new(v[0], v[1], v[2])),
+                Vector3::new(v[3], v[4], v[5]),
+            )
+        }
+        None => defaults.rig,
+    };
+    Ok(SyntheticStereoConfig {
+        left,
+        right_intrinsics,
+        right_distortion: BrownConrady::new(d[0], d[1], d[2], d[3]),
+        right_image_size,
+        rig,
+    })
+}
+
 pub fn run(command: &SynthCommand) -> Result<(), Failure> {
     match command {
+        SynthCommand::Stereo(args) => {
+            let config = stereo_config(args)?;
+            let set = generate_stereo(&config)?;
+            let mut out = set.observations.to_json_value();
+            let c = &config.left;
+            out["name"] = json!(format!(
+                "synthetic stereo, {} pairs, {}x{} board, noise {} px, seed {}",
+                c.views, c.board_cols, c.board_rows, c.noise_px, c.seed
+            ));
+            out["board"] = json!({"cols": c.board_cols, "rows": c.board_rows, "square": c.square});
+            let right = SyntheticConfig {
+                intrinsics: config.right_intrinsics,
+                distortion: config.right_distortion,
+                image_size: config.right_image_size,
+                ..config.left.clone()
+            };
+            let right_poses: Vec<Pose> = set
+                .left_poses
+                .iter()
+                .map(|p| config.rig.compose(p))
+                .collect();
+            let r = config.rig.rotation;
+            out["truth"] = json!({
+                "left": truth_json(&config.left, &set.left_poses),
+                "right": truth_json(&right, &right_poses),
+                "R": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
+                "T": [config.rig.translation.x, config.rig.translation.y, config.rig.translation.z],
+            });
+            write_json(&args.left.output, &out)
+        }
         SynthCommand::Single(args) => {
             let config = args.config()?;
             let set = generate(&config)?;

@@ -149,3 +149,110 @@ fn options_reach_the_library() {
         .collect();
     assert_eq!(fixed, ["cx", "cy", "p1", "p2"]);
 }
+
+#[test]
+fn stereo_on_real_data_and_synthetic_rigs() {
+    let out = temp("stereo.json");
+    let run = calib()
+        .args(["stereo", &data("sourishg1/stereo.json"), "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let summary = String::from_utf8(run.stdout).unwrap();
+    assert!(
+        summary.contains("baseline") && summary.contains("right camera"),
+        "{summary}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    for key in [
+        "R",
+        "T",
+        "E",
+        "F",
+        "rotation_vector",
+        "euler_xyz",
+        "baseline",
+        "rig_std",
+        "left",
+        "right",
+        "pairs",
+    ] {
+        assert!(json.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(json["pairs"].as_array().unwrap().len(), 29);
+
+    let file = temp("synth-stereo.json");
+    let run = calib()
+        .args([
+            "synth",
+            "stereo",
+            "--views",
+            "8",
+            "--noise",
+            "0",
+            "--rig",
+            "0,0.05,0,-120,0,0",
+            "-o",
+        ])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let run = calib()
+        .arg("stereo")
+        .arg(&file)
+        .args([
+            "--quiet",
+            "--same-focal-length",
+            "--fix-right-intrinsics",
+            "-o",
+            "-",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(
+        json["right"]["fixed_parameters"].as_array().unwrap().len(),
+        8
+    );
+    assert_eq!(json["left"]["fx"], json["right"]["fx"]);
+
+    let run = calib()
+        .arg("stereo")
+        .arg(&file)
+        .args(["--quiet", "-o", "-"])
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert!((json["baseline"].as_f64().unwrap() - 120.0).abs() < 1e-6);
+    assert!(json["rms"].as_f64().unwrap() < 1e-6);
+
+    // A pair whose right view has a point less than its left view.
+    let mut bad: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    bad["pairs"][2]["right_points"]
+        .as_array_mut()
+        .unwrap()
+        .pop();
+    let bad_file = temp("bad-stereo.json");
+    std::fs::write(&bad_file, bad.to_string()).unwrap();
+    let run = calib().arg("stereo").arg(&bad_file).output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(err.contains("pair 2"), "{err}");
+}

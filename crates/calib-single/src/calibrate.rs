@@ -195,21 +195,25 @@ struct Setup<'a> {
     start: Instant,
 }
 
-/// Names of the camera block's components.
-fn camera_param_names<D: LensDistortion>() -> Vec<&'static str> {
+/// Names of the camera block's components: `fx, fy, cx, cy` and the distortion's.
+pub fn camera_param_names<D: LensDistortion>() -> Vec<&'static str> {
     let mut names = vec!["fx", "fy", "cx", "cy"];
     names.extend_from_slice(D::PARAM_NAMES);
     names
 }
 
-/// Indices of the camera block held fixed by the options (sorted, unique).
-pub(crate) fn fixed_camera_components<D: LensDistortion>(
+/// Indices of the camera block `[fx, fy, cx, cy, distortion...]` held fixed by `options` for a
+/// calibration with `num_views` views (sorted, unique).
+pub fn fixed_camera_components<D: LensDistortion>(
     options: &CalibrationOptions,
     num_views: usize,
 ) -> Vec<usize> {
     let mut fixed = Vec::new();
     if options.fix_principal_point || num_views == 1 {
         fixed.extend([2, 3]);
+    }
+    if options.fix_focal_length {
+        fixed.extend([0, 1]);
     }
     if options.fix_aspect_ratio {
         fixed.push(1);

@@ -13,6 +13,8 @@ pub struct CalibrationOptions {
     /// Hold the principal point at its initial value (the image centre, or the guess). With a
     /// single view it is always held (it is not observable from one view).
     pub fix_principal_point: bool,
+    /// Hold `fx` and `fy` at their initial values (the closed-form guess or `intrinsic_guess`).
+    pub fix_focal_length: bool,
     /// Hold `fx / fy` at its initial value (1 from the closed-form start): only `fx` is estimated
     /// and `fy = fx / ratio`.
     pub fix_aspect_ratio: bool,
@@ -42,6 +44,7 @@ impl Default for CalibrationOptions {
     fn default() -> Self {
         Self {
             fix_principal_point: false,
+            fix_focal_length: false,
             fix_aspect_ratio: false,
             zero_tangential_distortion: false,
             fixed_distortion: Vec::new(),

@@ -85,7 +85,8 @@ fn round_trip_rotation(pose: &Pose) -> (Vec<f64>, Vec<f64>) {
     (vec![w.x, w.y, w.z], vec![e.x, e.y, e.z])
 }
 
-pub(crate) fn pose_json(pose: &Pose) -> Value {
+/// A pose as JSON: rotation matrix, rotation vector, Euler X-Y-Z angles and translation.
+pub fn pose_json(pose: &Pose) -> Value {
     let r = &pose.rotation;
     let (rvec, euler) = round_trip_rotation(pose);
     json!({
@@ -96,7 +97,8 @@ pub(crate) fn pose_json(pose: &Pose) -> Value {
     })
 }
 
-pub(crate) fn solver_json(report: &SolverReport) -> Value {
+/// A solver report as JSON (termination, counts, costs, times, per-iteration records).
+pub fn solver_json(report: &SolverReport) -> Value {
     json!({
         "termination": report.termination.to_string(),
         "converged": report.termination.is_converged(),

@@ -90,7 +90,7 @@ pub fn board_points(cols: usize, rows: usize, square: f64) -> Vec<Point3<f64>> {
 /// Draws a board pose: tilted by up to `max_tilt_deg` about a random axis in the image plane,
 /// turned up to 30 degrees in its plane, filling 35% to 80% of the image width, centred somewhere
 /// in the middle 40% of the image.
-pub(crate) fn random_pose(
+pub fn random_pose(
     rng: &mut Rng,
     config: &SyntheticConfig,
     board_width: f64,
@@ -121,7 +121,7 @@ pub const MIN_DISTORTION_JACOBIAN: f64 = 0.3;
 
 /// True if the distortion map is locally one-to-one, with margin, on the segment from the optical
 /// axis to the normalized point `n` (checked at 16 points).
-pub(crate) fn inside_lens_field(camera: &Camera<BrownConrady>, n: &Vector3<f64>) -> bool {
+pub fn inside_lens_field(camera: &Camera<BrownConrady>, n: &Vector3<f64>) -> bool {
     use camera_model::LensDistortion;
     (1..=16).all(|i| {
         let t = i as f64 / 16.0;
@@ -132,7 +132,7 @@ pub(crate) fn inside_lens_field(camera: &Camera<BrownConrady>, n: &Vector3<f64>)
 
 /// Projects the board with `camera` from `pose`; `None` unless every point is in front of the
 /// camera, inside the lens' one-to-one field and at least `margin` pixels inside the image.
-pub(crate) fn project_inside(
+pub fn project_inside(
     camera: &Camera<BrownConrady>,
     pose: &Pose,
     board: &[Point3<f64>],
@@ -158,7 +158,7 @@ pub(crate) fn project_inside(
 }
 
 /// Checks the settings shared by the single and stereo generators.
-pub(crate) fn check_config(config: &SyntheticConfig) -> Result<(), SyntheticError> {
+pub fn check_config(config: &SyntheticConfig) -> Result<(), SyntheticError> {
     if config.board_cols < 2
         || config.board_rows < 2
         || !config.square.is_finite()

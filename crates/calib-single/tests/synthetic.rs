@@ -424,3 +424,21 @@ fn result_json_has_the_documented_fields() {
     assert_eq!(json["camera"]["dist_coeffs"].as_array().unwrap().len(), 4);
     assert!(json["solver"]["converged"].as_bool().unwrap());
 }
+
+#[test]
+fn option_fix_focal_length() {
+    let set = base_set();
+    let options = CalibrationOptions {
+        fix_focal_length: true,
+        intrinsic_guess: Some(Intrinsics::new(805.0, 795.0, 320.0, 240.0)),
+        ..Default::default()
+    };
+    let r = calibrate(&set.observations, &options).unwrap();
+    assert_eq!(
+        (r.camera.intrinsics.fx, r.camera.intrinsics.fy),
+        (805.0, 795.0)
+    );
+    assert_eq!(&r.intrinsics_std[..2], &[0.0, 0.0]);
+    assert!(r.intrinsics_std[2] > 0.0);
+    assert_eq!(r.fixed_parameters, vec!["fx", "fy"]);
+}

@@ -56,7 +56,7 @@ pub use distortion::{BrownConrady, LensDistortion, ParamJacobian};
 pub use error::CameraModelError;
 pub use intrinsics::Intrinsics;
 pub use pose::{DifferentiablePose, Pose};
-pub use projection::{Camera, ProjectionJacobians};
+pub use projection::{Camera, CameraPointJacobians, ProjectionJacobians};
 pub use rotation::{
     AxisAngle, EulerXyz, RotationKind, RotationParameterization, nearest_rotation, skew,
 };

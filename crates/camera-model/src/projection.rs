@@ -43,6 +43,19 @@ pub struct ProjectionJacobians<D: LensDistortion> {
     pub d_point: Matrix2x3<f64>,
 }
 
+/// A projected camera-frame point and its Jacobians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraPointJacobians<D: LensDistortion> {
+    /// The distorted pixel `(u, v)`.
+    pub pixel: Vector2<f64>,
+    /// `dp / d[fx, fy, cx, cy]` (2x4).
+    pub d_intrinsics: Matrix2x4<f64>,
+    /// `dp / d(distortion parameters)` (2 x `D::NUM_PARAMS`).
+    pub d_distortion: D::ParamJacobian,
+    /// `dp / ds` with respect to the camera-frame point (2x3).
+    pub d_camera_point: Matrix2x3<f64>,
+}
+
 /// `dn/ds` for `n = (s_x/s_z, s_y/s_z)`.
 #[inline]
 fn d_normalized_d_camera(s: &Vector3<f64>) -> (Vector2<f64>, Matrix2x3<f64>) {
@@ -115,6 +128,27 @@ impl<D: LensDistortion> Camera<D> {
         self.project_camera_point(&pose.transform_point(point))
     }
 
+    /// Pixel of a camera-frame point and its Jacobians with respect to the intrinsics, the
+    /// distortion parameters and the camera-frame point itself (`dp/ds`, 2x3). This is the part
+    /// of the projection after the pose; chain `dp/ds` with any pose model (a stereo rig, say).
+    #[inline]
+    pub fn project_camera_point_with_jacobians(
+        &self,
+        s: &Vector3<f64>,
+    ) -> Result<CameraPointJacobians<D>, CameraModelError> {
+        check_depth(s)?;
+        let (n, dn_ds) = d_normalized_d_camera(s);
+        let (d, dd_dn, dd_dk) = self.distortion.distort_with_jacobians(&n);
+        let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
+        let scale = Matrix2::new(fx, 0.0, 0.0, fy);
+        Ok(CameraPointJacobians {
+            pixel: Vector2::new(fx * d.x + cx, fy * d.y + cy),
+            d_intrinsics: Matrix2x4::new(d.x, 0.0, 1.0, 0.0, 0.0, d.y, 0.0, 1.0),
+            d_distortion: dd_dk.scale_rows(fx, fy),
+            d_camera_point: scale * dd_dn * dn_ds,
+        })
+    }
+
     /// Pixel of a world point and its Jacobians with respect to the intrinsics, the distortion
     /// parameters, the pose parameters (in the parameterization `pose` was prepared with) and the
     /// world point. Allocation-free.
@@ -125,22 +159,13 @@ impl<D: LensDistortion> Camera<D> {
         point: &Point3<f64>,
     ) -> Result<ProjectionJacobians<D>, CameraModelError> {
         let (s, ds_dm) = pose.transform_with_jacobian(point);
-        check_depth(&s)?;
-        let (n, dn_ds) = d_normalized_d_camera(&s);
-        let (d, dd_dn, dd_dk) = self.distortion.distort_with_jacobians(&n);
-        let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
-        let pixel = Vector2::new(fx * d.x + cx, fy * d.y + cy);
-        let d_intrinsics = Matrix2x4::new(d.x, 0.0, 1.0, 0.0, 0.0, d.y, 0.0, 1.0);
-        let scale = Matrix2::new(fx, 0.0, 0.0, fy);
-        let d_distortion = dd_dk.scale_rows(fx, fy);
-        // dp/ds is shared by the pose and point Jacobians.
-        let dp_ds = scale * dd_dn * dn_ds;
+        let j = self.project_camera_point_with_jacobians(&s)?;
         Ok(ProjectionJacobians {
-            pixel,
-            d_intrinsics,
-            d_distortion,
-            d_pose: dp_ds * ds_dm,
-            d_point: dp_ds * pose.rotation,
+            pixel: j.pixel,
+            d_intrinsics: j.d_intrinsics,
+            d_distortion: j.d_distortion,
+            d_pose: j.d_camera_point * ds_dm,
+            d_point: j.d_camera_point * pose.rotation,
         })
     }
 }

@@ -1,0 +1,106 @@
+//! Errors of the stereo calibration.
+
+use calib_single::CalibrationError;
+use lm_solver::{CovarianceError, SolverError};
+
+/// Which camera of the rig.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// The left (reference) camera.
+    Left,
+    /// The right camera.
+    Right,
+}
+
+impl std::fmt::Display for Side {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Side::Left => "left",
+            Side::Right => "right",
+        })
+    }
+}
+
+/// What can go wrong in a stereo calibration. Errors about the input name the pair (index in
+/// the input, from 0) and the camera.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StereoError {
+    /// The pair list is empty (or every pair was skipped).
+    #[error("no usable pairs{}", if *.skipped > 0 { format!(" ({} skipped as bad)", .skipped) } else { String::new() })]
+    NoPairs {
+        /// Pairs skipped as bad.
+        skipped: usize,
+    },
+    /// The image size is missing.
+    #[error("image size is missing")]
+    ImageSizeMissing,
+    /// An image size has a zero dimension.
+    #[error("invalid {camera} image size {width}x{height}")]
+    InvalidImageSize {
+        /// The camera.
+        camera: Side,
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+    },
+    /// The two cameras saw a different number of points in a pair.
+    #[error("pair {pair}: {left} points in the left view but {right} in the right view")]
+    PairPointCountMismatch {
+        /// Pair index.
+        pair: usize,
+        /// Left count.
+        left: usize,
+        /// Right count.
+        right: usize,
+    },
+    /// The board points of a pair differ between the two cameras.
+    #[error("pair {pair}, point {point}: the left and right views have different board points")]
+    ObjectPointsDiffer {
+        /// Pair index.
+        pair: usize,
+        /// Point index.
+        point: usize,
+    },
+    /// A view of a pair failed the single-camera checks.
+    #[error("pair {pair}, {camera} view: {source}")]
+    View {
+        /// Pair index.
+        pair: usize,
+        /// The camera.
+        camera: Side,
+        /// The single-camera error (its view index is the pair index).
+        source: CalibrationError,
+    },
+    /// The single-camera calibration that initializes one camera failed.
+    #[error("initial calibration of the {camera} camera: {source}")]
+    Camera {
+        /// The camera.
+        camera: Side,
+        /// The single-camera error.
+        source: CalibrationError,
+    },
+    /// Not enough measurements for the free parameters.
+    #[error("{residuals} residuals for {parameters} free parameters: add pairs or fix parameters")]
+    TooFewObservations {
+        /// Scalar residuals.
+        residuals: usize,
+        /// Free parameters.
+        parameters: usize,
+    },
+    /// An invalid option value.
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
+    /// The rig could not be initialized.
+    #[error("rig initialization failed: {0}")]
+    RigInitialization(String),
+    /// The solver could not be set up or started.
+    #[error("solver: {0}")]
+    Solver(#[from] SolverError),
+    /// The parameters are not all determined by the data.
+    #[error("the calibration is not unique: {0}")]
+    Unobservable(#[from] CovarianceError),
+    /// A non-finite value came out of the optimization.
+    #[error("the optimization diverged ({0})")]
+    Diverged(String),
+}

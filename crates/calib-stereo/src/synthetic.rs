@@ -1,0 +1,162 @@
+//! Synthetic stereo data with known truth: a board seen by both cameras of a known rig.
+
+use crate::observations::{StereoObservations, StereoPair};
+use calib_single::synthetic::{
+    SyntheticConfig, SyntheticError, board_points, check_config, project_inside, random_pose,
+};
+use calib_single::{ImageSize, View};
+use camera_model::{BrownConrady, Camera, EulerXyz, Intrinsics, Pose, RotationParameterization};
+use lm_solver::test_problems::Rng;
+use nalgebra::{Point2, Vector3};
+
+/// What to generate. Board, noise, tilt, view count, seed and the left camera come from `left`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyntheticStereoConfig {
+    /// Left camera, board, number of pairs, noise, tilt and seed.
+    pub left: SyntheticConfig,
+    /// Right camera intrinsics.
+    pub right_intrinsics: Intrinsics,
+    /// Right camera distortion.
+    pub right_distortion: BrownConrady,
+    /// Right image size.
+    pub right_image_size: ImageSize,
+    /// Left camera to right camera (`X_R = R X_L + T`).
+    pub rig: Pose,
+}
+
+impl Default for SyntheticStereoConfig {
+    /// The single-camera defaults for the left camera, a slightly different right camera, and a
+    /// 100 mm baseline with a rotation of about 1.3 degrees.
+    fn default() -> Self {
+        Self {
+            left: SyntheticConfig::default(),
+            right_intrinsics: Intrinsics::new(810.0, 805.0, 325.0, 235.0),
+            right_distortion: BrownConrady::new(-0.18, 0.04, -0.0005, 0.0008),
+            right_image_size: ImageSize::new(640, 480),
+            rig: Pose::new(
+                EulerXyz::matrix(&Vector3::new(0.01, -0.02, 0.005)),
+                Vector3::new(-100.0, 1.0, 2.0),
+            ),
+        }
+    }
+}
+
+/// A generated stereo data set and its truth.
+#[derive(Debug, Clone)]
+pub struct SyntheticStereoSet {
+    /// The noisy observations.
+    pub observations: StereoObservations,
+    /// True left camera.
+    pub left: Camera<BrownConrady>,
+    /// True right camera.
+    pub right: Camera<BrownConrady>,
+    /// True rig.
+    pub rig: Pose,
+    /// True board-to-left-camera pose of each pair.
+    pub left_poses: Vec<Pose>,
+}
+
+/// Generates a stereo data set: board poses drawn as for a single camera, kept only when the
+/// whole board is inside both images (and both lenses' one-to-one fields).
+pub fn generate_stereo(
+    config: &SyntheticStereoConfig,
+) -> Result<SyntheticStereoSet, SyntheticError> {
+    let base = &config.left;
+    check_config(base)?;
+    let mut rng = Rng::new(base.seed);
+    let left = Camera::new(base.intrinsics, base.distortion);
+    let right = Camera::new(config.right_intrinsics, config.right_distortion);
+    let board = board_points(base.board_cols, base.board_rows, base.square);
+    let width = (base.board_cols - 1) as f64 * base.square;
+    let centre = Vector3::new(
+        width / 2.0,
+        (base.board_rows - 1) as f64 * base.square / 2.0,
+        0.0,
+    );
+    let mut pairs = Vec::with_capacity(base.views);
+    let mut poses = Vec::with_capacity(base.views);
+    let noisy = |pixels: Vec<Point2<f64>>, rng: &mut Rng| -> Vec<Point2<f64>> {
+        pixels
+            .into_iter()
+            .map(|p| {
+                Point2::new(
+                    p.x + base.noise_px * rng.normal(),
+                    p.y + base.noise_px * rng.normal(),
+                )
+            })
+            .collect()
+    };
+    for view in 0..base.views {
+        let (pose, l, r) = (0..2000)
+            .find_map(|_| {
+                let pose = random_pose(&mut rng, base, width, &centre);
+                let l = project_inside(&left, &pose, &board, base.image_size, 5.0)?;
+                let r = project_inside(
+                    &right,
+                    &config.rig.compose(&pose),
+                    &board,
+                    config.right_image_size,
+                    5.0,
+                )?;
+                Some((pose, l, r))
+            })
+            .ok_or(SyntheticError::CannotPlaceBoard { view })?;
+        pairs.push(StereoPair {
+            left: View {
+                name: format!("left{view}"),
+                object_points: board.clone(),
+                image_points: noisy(l, &mut rng),
+            },
+            right: View {
+                name: format!("right{view}"),
+                object_points: board.clone(),
+                image_points: noisy(r, &mut rng),
+            },
+        });
+        poses.push(pose);
+    }
+    Ok(SyntheticStereoSet {
+        observations: StereoObservations {
+            image_size: Some(base.image_size),
+            right_image_size: Some(config.right_image_size),
+            pairs,
+        },
+        left,
+        right,
+        rig: config.rig,
+        left_poses: poses,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn both_views_are_consistent_with_the_rig() {
+        let config = SyntheticStereoConfig {
+            left: SyntheticConfig {
+                views: 10,
+                noise_px: 0.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let set = generate_stereo(&config).unwrap();
+        for (pair, pose) in set.observations.pairs.iter().zip(&set.left_poses) {
+            for (x, m) in pair
+                .right
+                .object_points
+                .iter()
+                .zip(&pair.right.image_points)
+            {
+                let p = set.right.project(&set.rig.compose(pose), x).unwrap();
+                assert!((p - m.coords).norm() < 1e-9);
+            }
+        }
+        assert_eq!(
+            generate_stereo(&config).unwrap().observations,
+            set.observations
+        );
+    }
+}
