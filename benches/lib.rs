@@ -10,13 +10,12 @@
 //! * [`single_thread_options`], [`single_thread_solver_options`]: everything on one thread.
 //! * [`windowed_bearing_adjustment`]: a bundle-adjustment problem with sparse visibility.
 
-use calib_single::cost::{ReprojectionCost, ViewData};
+use calib_single::cost::ReprojectionCost;
 use calib_single::synthetic::{SyntheticConfig, SyntheticSet, generate};
-use calib_single::{CalibrationOptions, FocalInit, Observations, default_solver_options};
-use camera_model::{BrownConrady, Camera, EulerXyz, LensDistortion};
+use calib_single::{CalibrationOptions, Observations, default_solver_options};
+use camera_model::{BrownConrady, EulerXyz};
 use lm_solver::test_problems::BearingAdjustment;
-use lm_solver::{ParameterBlockId, Problem, ProblemBuilder, Solver, SolverOptions};
-use nalgebra::Point2;
+use lm_solver::{Problem, Solver, SolverOptions};
 
 /// The two boards of the benchmarks: `(columns, rows)` of inner corners.
 pub const BOARD_9X6: (usize, usize) = (9, 6);
@@ -63,16 +62,16 @@ pub fn single_thread_options() -> CalibrationOptions {
 }
 
 /// The single-camera Levenberg-Marquardt problem exactly as `calib_single::calibrate` builds it
-/// with default options (Brown-Conrady `k1, k2, p1, p2`, Euler X-Y-Z poses, the camera components
-/// `calibrate` fixes: none when there is more than one view), with the closed-form start.
+/// with default options (Brown-Conrady `k1, k2, p1, p2`, Euler X-Y-Z poses), with its closed-form
+/// start: a thin wrapper around `calib_single::CalibrationProblem`, so the solver core can be timed
+/// without the rest of the pipeline.
 #[derive(Debug, Clone)]
 pub struct CalibrationProblem {
-    /// The views, as the cost function reads them.
-    pub views: Vec<ViewData>,
+    /// The library's prepared calibration.
+    pub prepared: calib_single::CalibrationProblem<BrownConrady>,
     /// Camera block, then one eliminated pose block per view with one residual block each.
     pub problem: Problem,
-    /// The closed-form start (homographies, Bouguet focal length, poses from `K^-1 H`), as in
-    /// `calibrate`.
+    /// The closed-form start (homographies, Bouguet focal length, poses from `K^-1 H`).
     pub start: Vec<f64>,
     /// Total number of observed points.
     pub num_points: usize,
@@ -81,75 +80,22 @@ pub struct CalibrationProblem {
 impl CalibrationProblem {
     /// Builds the problem and its start from observations (all views must be usable).
     pub fn new(observations: &Observations) -> Self {
-        let size = observations.image_size.expect("image size");
-        let homography_options = homography::RefineOptions::default();
-        let homographies: Vec<_> = observations
-            .views
-            .iter()
-            .map(|v| {
-                let object: Vec<Point2<f64>> = v
-                    .object_points
-                    .iter()
-                    .map(|p| Point2::new(p.x, p.y))
-                    .collect();
-                homography::estimate(&object, &v.image_points, &homography_options)
-                    .expect("homography")
-                    .h
-            })
-            .collect();
-        let intrinsics =
-            calib_single::init::initial_intrinsics(&homographies, size, FocalInit::Bouguet)
-                .expect("closed-form intrinsics");
-        let views: Vec<ViewData> = observations
-            .views
-            .iter()
-            .map(|v| ViewData {
-                object: v.object_points.clone(),
-                image: v.image_points.iter().map(|p| p.coords).collect(),
-            })
-            .collect();
-
-        let mut builder = ProblemBuilder::new();
-        let camera_block = builder.add_parameter_block(4 + BrownConrady::NUM_PARAMS);
-        builder.set_fixed_components(
-            camera_block,
-            &calib_single::calibrate::fixed_camera_components::<BrownConrady>(
-                &CalibrationOptions::default(),
-                views.len(),
-            ),
-        );
-        let pose_blocks: Vec<ParameterBlockId> = views
-            .iter()
-            .map(|v| {
-                let b = builder.add_parameter_block(6);
-                builder.set_eliminated(b, true);
-                builder.add_residual_block(2 * v.object.len(), &[camera_block, b]);
-                b
-            })
-            .collect();
-        let problem = builder.build().expect("valid calibration problem");
-
-        let mut start = vec![0.0; problem.num_parameters()];
-        Camera::new(intrinsics, BrownConrady::from_params(&[0.0; 4]))
-            .write_params(problem.block_mut(&mut start, camera_block));
-        for (h, &b) in homographies.iter().zip(&pose_blocks) {
-            let pose = calib_single::init::initial_pose(h, &intrinsics).expect("closed-form pose");
-            problem
-                .block_mut(&mut start, b)
-                .copy_from_slice(pose.to_params::<EulerXyz>().as_slice());
-        }
-        let num_points = views.iter().map(|v| v.object.len()).sum();
+        let prepared = calib_single::CalibrationProblem::<BrownConrady>::new(
+            observations,
+            &single_thread_options(),
+        )
+        .expect("valid calibration problem");
         Self {
-            views,
-            problem,
-            start,
-            num_points,
+            problem: prepared.problem.clone(),
+            start: prepared.start::<EulerXyz>(),
+            num_points: prepared.num_points(),
+            prepared,
         }
     }
 
-    /// The reprojection cost over these views (no fixed aspect ratio).
+    /// The reprojection cost over these views.
     pub fn cost(&self) -> ReprojectionCost<'_, BrownConrady, EulerXyz> {
-        ReprojectionCost::new(&self.views, None)
+        self.prepared.cost::<EulerXyz>()
     }
 
     /// A solver prepared for this problem.

@@ -6,13 +6,15 @@ use crate::error::CalibrationError;
 use crate::init::{initial_intrinsics, initial_pose};
 use crate::observations::{ImageSize, Observations, View, check_view};
 use crate::options::CalibrationOptions;
-use crate::result::{Calibration, SkippedView, ViewResult};
+use crate::result::{Calibration, SkippedView, StageTimes, ViewResult};
 use camera_model::{
     AxisAngle, BrownConrady, Camera, EulerXyz, Intrinsics, LensDistortion, Pose, RotationKind,
     RotationParameterization,
 };
-use lm_solver::{CostFunction, ParameterBlockId, ProblemBuilder, ResidualBlockId, Solver};
+use lm_solver::{CostFunction, ParameterBlockId, Problem, ProblemBuilder, ResidualBlockId, Solver};
 use nalgebra::{Matrix3, Point2, Vector2, Vector6};
+use std::marker::PhantomData;
+use std::time::Duration;
 use std::time::Instant;
 
 /// Calibrates a camera with the Brown-Conrady `k1, k2, p1, p2` model.
@@ -41,66 +43,176 @@ pub fn calibrate_with_model<D: LensDistortion>(
     options: &CalibrationOptions,
 ) -> Result<Calibration<D>, CalibrationError> {
     let start = Instant::now();
-    let image_size = observations
-        .image_size
-        .ok_or(CalibrationError::ImageSizeMissing)?;
-    if image_size.width == 0 || image_size.height == 0 {
-        return Err(CalibrationError::InvalidImageSize {
-            width: image_size.width,
-            height: image_size.height,
-        });
-    }
-    check_options::<D>(options)?;
-    let prepared = prepare_views(&observations.views, options)?;
-    let Prepared {
-        used,
-        homographies,
-        skipped,
-    } = prepared;
-
-    // Closed-form intrinsics.
-    let initial = match options.intrinsic_guess {
-        Some(guess) => guess,
-        None => initial_intrinsics(&homographies, image_size, options.focal_init)?,
-    };
-    let mut initial_distortion = options
-        .distortion_guess
-        .clone()
-        .unwrap_or_else(|| vec![0.0; D::NUM_PARAMS]);
-    if options.zero_tangential_distortion {
-        for &i in D::TANGENTIAL_PARAMS {
-            initial_distortion[i] = 0.0;
-        }
-    }
-
-    // Closed-form poses.
-    let mut poses = Vec::with_capacity(used.len());
-    for (&(index, view), h) in used.iter().zip(&homographies) {
-        let pose = initial_pose(h, &initial).ok_or_else(|| CalibrationError::Initialization {
-            reason: format!("view {index}: no pose from its homography"),
-        })?;
-        if let Some(point) = view
-            .object_points
-            .iter()
-            .position(|x| pose.transform_point(x).z <= 0.0)
-        {
-            return Err(CalibrationError::PointBehindCamera { view: index, point });
-        }
-        poses.push(pose);
-    }
-
-    let setup = Setup {
-        image_size,
-        used,
-        skipped,
-        initial,
-        initial_distortion,
-        poses,
-        start,
-    };
+    let prepared = CalibrationProblem::<D>::new(observations, options)?;
     match options.rotation {
-        RotationKind::EulerXyz => optimize::<D, EulerXyz>(setup, options),
-        RotationKind::AxisAngle => optimize::<D, AxisAngle>(setup, options),
+        RotationKind::EulerXyz => solve::<D, EulerXyz>(prepared, options, start),
+        RotationKind::AxisAngle => solve::<D, AxisAngle>(prepared, options, start),
+    }
+}
+
+/// A single-camera calibration set up for the solver: the checked views, the closed-form start
+/// and the Levenberg-Marquardt problem (camera block reduced, one eliminated pose block and one
+/// residual block per view). [`calibrate`] builds one and solves it; it is public for callers
+/// that drive or time the solver themselves (the benchmarks do).
+#[derive(Debug, Clone)]
+pub struct CalibrationProblem<D> {
+    /// Image size.
+    pub image_size: ImageSize,
+    /// Input index and name of each used view, in order.
+    pub used_views: Vec<(usize, String)>,
+    /// Views left out by `skip_bad_views`.
+    pub skipped: Vec<SkippedView>,
+    /// The used views' points, as the cost function reads them.
+    pub views: Vec<ViewData>,
+    /// Closed-form (or given) intrinsics.
+    pub initial: Intrinsics,
+    /// Initial distortion coefficients.
+    pub initial_distortion: Vec<f64>,
+    /// Closed-form pose of each used view.
+    pub initial_poses: Vec<Pose>,
+    /// `fx / fy` when the aspect ratio is fixed.
+    pub aspect_ratio: Option<f64>,
+    /// Fixed components of the camera block.
+    pub fixed: Vec<usize>,
+    /// The Levenberg-Marquardt problem.
+    pub problem: Problem,
+    /// The camera block.
+    pub camera_block: ParameterBlockId,
+    /// One pose block per used view.
+    pub pose_blocks: Vec<ParameterBlockId>,
+    /// Time spent on checks and homographies, and on the closed-form start.
+    pub preparation_times: (Duration, Duration),
+    _model: PhantomData<fn() -> D>,
+}
+
+impl<D: LensDistortion> CalibrationProblem<D> {
+    /// Checks the observations and options, estimates the homographies, computes the closed-form
+    /// start and builds the problem (steps 1 to 3 of [`calibrate_with_model`]).
+    pub fn new(
+        observations: &Observations,
+        options: &CalibrationOptions,
+    ) -> Result<Self, CalibrationError> {
+        let start = Instant::now();
+        let image_size = observations
+            .image_size
+            .ok_or(CalibrationError::ImageSizeMissing)?;
+        if image_size.width == 0 || image_size.height == 0 {
+            return Err(CalibrationError::InvalidImageSize {
+                width: image_size.width,
+                height: image_size.height,
+            });
+        }
+        check_options::<D>(options)?;
+        let Prepared {
+            used,
+            homographies,
+            skipped,
+        } = prepare_views(&observations.views, options)?;
+        let homographies_done = Instant::now();
+
+        // Closed-form intrinsics.
+        let initial = match options.intrinsic_guess {
+            Some(guess) => guess,
+            None => initial_intrinsics(&homographies, image_size, options.focal_init)?,
+        };
+        let mut initial_distortion = options
+            .distortion_guess
+            .clone()
+            .unwrap_or_else(|| vec![0.0; D::NUM_PARAMS]);
+        if options.zero_tangential_distortion {
+            for &i in D::TANGENTIAL_PARAMS {
+                initial_distortion[i] = 0.0;
+            }
+        }
+
+        // Closed-form poses.
+        let mut initial_poses = Vec::with_capacity(used.len());
+        for (&(index, view), h) in used.iter().zip(&homographies) {
+            let pose =
+                initial_pose(h, &initial).ok_or_else(|| CalibrationError::Initialization {
+                    reason: format!("view {index}: no pose from its homography"),
+                })?;
+            if let Some(point) = view
+                .object_points
+                .iter()
+                .position(|x| pose.transform_point(x).z <= 0.0)
+            {
+                return Err(CalibrationError::PointBehindCamera { view: index, point });
+            }
+            initial_poses.push(pose);
+        }
+
+        let views: Vec<ViewData> = used
+            .iter()
+            .map(|(_, v)| ViewData {
+                object: v.object_points.clone(),
+                image: v.image_points.iter().map(|p| p.coords).collect(),
+            })
+            .collect();
+        let fixed = fixed_camera_components::<D>(options, used.len());
+        let mut builder = ProblemBuilder::new();
+        let camera_block = builder.add_parameter_block(4 + D::NUM_PARAMS);
+        builder.set_fixed_components(camera_block, &fixed);
+        let pose_blocks: Vec<ParameterBlockId> = views
+            .iter()
+            .map(|v| {
+                let b = builder.add_parameter_block(6);
+                builder.set_eliminated(b, true);
+                builder.add_residual_block(2 * v.object.len(), &[camera_block, b]);
+                b
+            })
+            .collect();
+        let problem = builder
+            .build()
+            .map_err(|e| CalibrationError::Initialization {
+                reason: e.to_string(),
+            })?;
+        let (residuals, free) = (problem.num_residuals(), problem.num_free_parameters());
+        if residuals <= free {
+            return Err(CalibrationError::TooFewObservations {
+                residuals,
+                parameters: free,
+            });
+        }
+        Ok(Self {
+            image_size,
+            used_views: used.iter().map(|(i, v)| (*i, v.name.clone())).collect(),
+            skipped,
+            views,
+            aspect_ratio: options.fix_aspect_ratio.then(|| initial.fx / initial.fy),
+            initial,
+            initial_distortion,
+            initial_poses,
+            fixed,
+            problem,
+            camera_block,
+            pose_blocks,
+            preparation_times: (homographies_done - start, homographies_done.elapsed()),
+            _model: PhantomData,
+        })
+    }
+
+    /// The cost function over the used views, with poses in parameterization `P`.
+    pub fn cost<P: RotationParameterization>(&self) -> ReprojectionCost<'_, D, P> {
+        ReprojectionCost::new(&self.views, self.aspect_ratio)
+    }
+
+    /// The closed-form start as the solver's flat parameter vector, poses in parameterization `P`.
+    pub fn start<P: RotationParameterization>(&self) -> Vec<f64> {
+        let mut x = vec![0.0; self.problem.num_parameters()];
+        Camera::new(self.initial, D::from_params(&self.initial_distortion))
+            .write_params(self.problem.block_mut(&mut x, self.camera_block));
+        for (pose, &b) in self.initial_poses.iter().zip(&self.pose_blocks) {
+            self.problem
+                .block_mut(&mut x, b)
+                .copy_from_slice(pose.to_params::<P>().as_slice());
+        }
+        x
+    }
+
+    /// Total number of points used.
+    pub fn num_points(&self) -> usize {
+        self.views.iter().map(|v| v.object.len()).sum()
     }
 }
 
@@ -185,16 +297,6 @@ fn prepare_views<'a>(
     Ok(out)
 }
 
-struct Setup<'a> {
-    image_size: ImageSize,
-    used: Vec<(usize, &'a View)>,
-    skipped: Vec<SkippedView>,
-    initial: Intrinsics,
-    initial_distortion: Vec<f64>,
-    poses: Vec<Pose>,
-    start: Instant,
-}
-
 /// Names of the camera block's components: `fx, fy, cx, cy` and the distortion's.
 pub fn camera_param_names<D: LensDistortion>() -> Vec<&'static str> {
     let mut names = vec!["fx", "fy", "cx", "cy"];
@@ -227,87 +329,55 @@ pub fn fixed_camera_components<D: LensDistortion>(
     fixed
 }
 
-fn optimize<D: LensDistortion, P: RotationParameterization>(
-    setup: Setup<'_>,
+fn solve<D: LensDistortion, P: RotationParameterization>(
+    prepared: CalibrationProblem<D>,
     options: &CalibrationOptions,
+    start: Instant,
 ) -> Result<Calibration<D>, CalibrationError> {
-    let Setup {
-        image_size,
-        used,
-        skipped,
-        initial,
-        initial_distortion,
-        poses,
-        start,
-    } = setup;
-    let n_cam = 4 + D::NUM_PARAMS;
-    let views: Vec<ViewData> = used
-        .iter()
-        .map(|(_, v)| ViewData {
-            object: v.object_points.clone(),
-            image: v.image_points.iter().map(|p| p.coords).collect(),
-        })
-        .collect();
-    let aspect_ratio = options.fix_aspect_ratio.then(|| initial.fx / initial.fy);
-    let cost = ReprojectionCost::<D, P>::new(&views, aspect_ratio);
+    let optimization_start = Instant::now();
+    let cost = prepared.cost::<P>();
+    let mut x = prepared.start::<P>();
+    let num_points = prepared.num_points();
+    let (camera_block, aspect_ratio) = (prepared.camera_block, prepared.aspect_ratio);
 
-    let fixed = fixed_camera_components::<D>(options, used.len());
-    let mut builder = ProblemBuilder::new();
-    let camera_block = builder.add_parameter_block(n_cam);
-    builder.set_fixed_components(camera_block, &fixed);
-    let pose_blocks: Vec<ParameterBlockId> = views
-        .iter()
-        .map(|v| {
-            let b = builder.add_parameter_block(6);
-            builder.set_eliminated(b, true);
-            builder.add_residual_block(2 * v.object.len(), &[camera_block, b]);
-            b
-        })
-        .collect();
-    let problem = builder
-        .build()
-        .map_err(|e| CalibrationError::Initialization {
-            reason: e.to_string(),
-        })?;
-    let num_points: usize = views.iter().map(|v| v.object.len()).sum();
-    let (residuals, free) = (problem.num_residuals(), problem.num_free_parameters());
-    if residuals <= free {
-        return Err(CalibrationError::TooFewObservations {
-            residuals,
-            parameters: free,
-        });
-    }
-
-    let mut x = vec![0.0; problem.num_parameters()];
-    let camera0 = Camera::new(initial, D::from_params(&initial_distortion));
-    camera0.write_params(problem.block_mut(&mut x, camera_block));
-    for (pose, &b) in poses.iter().zip(&pose_blocks) {
-        problem
-            .block_mut(&mut x, b)
-            .copy_from_slice(pose.to_params::<P>().as_slice());
-    }
-    let initial_rms = rms_of(&cost, &problem, &x, num_points);
-
-    let mut solver = Solver::new(problem, options.solver.clone())?;
+    let mut solver = Solver::new(prepared.problem.clone(), options.solver.clone())?;
     let report = solver.solve(&cost, &mut x)?;
-    let covariance = solver.covariance(&cost, &x)?;
+    let optimization_done = Instant::now();
+    let covariance = if options.compute_uncertainty {
+        Some(solver.covariance(&cost, &x)?)
+    } else {
+        None
+    };
     let problem = solver.problem();
+    let std_of = |block: ParameterBlockId| match &covariance {
+        Some(c) => c.standard_deviations(block),
+        None => vec![0.0; problem.dim(block)],
+    };
 
     let camera = cost.camera(problem.block(&x, camera_block));
-    let camera_std = covariance.standard_deviations(camera_block);
+    let camera_std = std_of(camera_block);
     let mut intrinsics_std = [camera_std[0], camera_std[1], camera_std[2], camera_std[3]];
     if let Some(r) = aspect_ratio {
         intrinsics_std[1] = intrinsics_std[0] / r;
     }
     let names = camera_param_names::<D>();
-    let fixed_parameters = fixed.iter().map(|&i| names[i].to_string()).collect();
+    let fixed_parameters = prepared
+        .fixed
+        .iter()
+        .map(|&i| names[i].to_string())
+        .collect();
 
     // Residuals per view for the RMS figures.
-    let mut view_results = Vec::with_capacity(views.len());
+    let mut view_results = Vec::with_capacity(prepared.views.len());
     let (mut sum_sq, mut sum_x, mut sum_y, mut sum_xx, mut sum_yy) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut buffer = Vec::new();
-    for (k, ((index, view), &b)) in used.iter().zip(&pose_blocks).enumerate() {
-        let n = views[k].object.len();
+    for (k, ((index, name), &b)) in prepared
+        .used_views
+        .iter()
+        .zip(&prepared.pose_blocks)
+        .enumerate()
+    {
+        let n = prepared.views[k].object.len();
         buffer.resize(2 * n, 0.0);
         cost.evaluate(
             ResidualBlockId(k),
@@ -325,67 +395,51 @@ fn optimize<D: LensDistortion, P: RotationParameterization>(
         }
         sum_sq += view_sq;
         let params: [f64; 6] = problem.block(&x, b).try_into().unwrap_or([0.0; 6]);
-        let std = covariance.standard_deviations(b);
         view_results.push(ViewResult {
             index: *index,
-            name: view.name.clone(),
+            name: name.clone(),
             pose: Pose::from_params::<P>(&Vector6::from(params)),
             pose_params: params,
-            pose_std: std.try_into().unwrap_or([0.0; 6]),
+            pose_std: std_of(b).try_into().unwrap_or([0.0; 6]),
             rms: (view_sq / n as f64).sqrt(),
             num_points: n,
         });
     }
     let np = num_points as f64;
     let sample_std = |s: f64, ss: f64| ((ss - s * s / np) / (np - 1.0).max(1.0)).max(0.0).sqrt();
+    let (homographies, initialization) = prepared.preparation_times;
     let calibration = Calibration {
         camera,
         intrinsics_std,
         distortion_std: camera_std[4..].to_vec(),
         fixed_parameters,
-        image_size,
+        image_size: prepared.image_size,
         rotation: if P::NAME == AxisAngle::NAME {
             RotationKind::AxisAngle
         } else {
             RotationKind::EulerXyz
         },
         views: view_results,
-        skipped_views: skipped,
+        skipped_views: prepared.skipped,
         rms: (sum_sq / np).sqrt(),
         residual_std: [sample_std(sum_x, sum_xx), sample_std(sum_y, sum_yy)],
-        residual_variance: covariance.residual_variance,
+        residual_variance: sum_sq
+            / (problem.num_residuals() - problem.num_free_parameters()) as f64,
         num_points,
-        initial_intrinsics: initial,
-        initial_rms,
+        initial_intrinsics: prepared.initial,
+        // The cost is half the sum of squared residuals.
+        initial_rms: (2.0 * report.initial_cost / np).sqrt(),
         solver: report,
         elapsed: start.elapsed(),
+        stage_times: StageTimes {
+            homographies,
+            initialization,
+            optimization: optimization_done - optimization_start,
+            uncertainty: optimization_done.elapsed(),
+        },
     };
     check_finite(&calibration)?;
     Ok(calibration)
-}
-
-/// RMS reprojection error of the parameters `x` (infinite if some point is behind the camera).
-fn rms_of<C: CostFunction>(
-    cost: &C,
-    problem: &lm_solver::Problem,
-    x: &[f64],
-    num_points: usize,
-) -> f64 {
-    let mut sum = 0.0;
-    let mut buffer = Vec::new();
-    for r in 0..problem.num_residual_blocks() {
-        let id = ResidualBlockId(r);
-        buffer.resize(problem.residual_dim(id), 0.0);
-        let params: Vec<&[f64]> = problem
-            .residual_blocks_of(id)
-            .map(|b| problem.block(x, b))
-            .collect();
-        if cost.evaluate(id, &params, &mut buffer, None).is_err() {
-            return f64::INFINITY;
-        }
-        sum += buffer.iter().map(|v| v * v).sum::<f64>();
-    }
-    (sum / num_points as f64).sqrt()
 }
 
 fn check_finite<D: LensDistortion>(c: &Calibration<D>) -> Result<(), CalibrationError> {

@@ -43,9 +43,9 @@ pub mod options;
 pub mod result;
 pub mod synthetic;
 
-pub use calibrate::{calibrate, calibrate_with_model, reproject};
+pub use calibrate::{CalibrationProblem, calibrate, calibrate_with_model, reproject};
 pub use error::{CalibrationError, PointKind};
 pub use init::FocalInit;
 pub use observations::{ImageSize, Observations, ReadError, View};
 pub use options::{CalibrationOptions, default_solver_options};
-pub use result::{Calibration, SkippedView, ViewResult};
+pub use result::{Calibration, SkippedView, StageTimes, ViewResult};

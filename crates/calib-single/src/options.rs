@@ -34,6 +34,10 @@ pub struct CalibrationOptions {
     /// Skip views that fail the input checks or whose homography cannot be estimated, and list
     /// them in the result, instead of failing.
     pub skip_bad_views: bool,
+    /// Compute the standard deviations (default `true`). Without them the result's sigmas are
+    /// zero; a caller that only needs a starting point (the stereo pipeline's single-camera stage)
+    /// saves the rank check and the inversion.
+    pub compute_uncertainty: bool,
     /// Homography refinement settings.
     pub homography: RefineOptions,
     /// Levenberg-Marquardt settings.
@@ -53,7 +57,12 @@ impl Default for CalibrationOptions {
             rotation: RotationKind::EulerXyz,
             focal_init: FocalInit::Bouguet,
             skip_bad_views: false,
-            homography: RefineOptions::default(),
+            compute_uncertainty: true,
+            homography: RefineOptions {
+                cost_tolerance: 1e-10,
+                step_tolerance: 1e-8,
+                ..RefineOptions::default()
+            },
             solver: default_solver_options(),
         }
     }

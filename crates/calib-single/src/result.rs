@@ -40,6 +40,19 @@ pub struct SkippedView {
     pub reason: String,
 }
 
+/// Wall time of each stage of a calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StageTimes {
+    /// Input checks and homographies.
+    pub homographies: Duration,
+    /// Closed-form intrinsics and poses.
+    pub initialization: Duration,
+    /// Levenberg-Marquardt.
+    pub optimization: Duration,
+    /// Covariance and result assembly.
+    pub uncertainty: Duration,
+}
+
 /// A calibrated camera with uncertainties and diagnostics.
 #[derive(Debug, Clone)]
 pub struct Calibration<D> {
@@ -77,6 +90,8 @@ pub struct Calibration<D> {
     /// Wall time of the whole calibration (checks, homographies, initialization, optimization,
     /// covariance).
     pub elapsed: Duration,
+    /// Wall time per stage.
+    pub stage_times: StageTimes,
 }
 
 fn round_trip_rotation(pose: &Pose) -> (Vec<f64>, Vec<f64>) {
@@ -161,6 +176,12 @@ impl<D: LensDistortion> Calibration<D> {
             "image_size": [self.image_size.width, self.image_size.height],
             "rms": self.rms,
             "elapsed_seconds": self.elapsed.as_secs_f64(),
+            "stage_seconds": {
+                "homographies": self.stage_times.homographies.as_secs_f64(),
+                "initialization": self.stage_times.initialization.as_secs_f64(),
+                "optimization": self.stage_times.optimization.as_secs_f64(),
+                "uncertainty": self.stage_times.uncertainty.as_secs_f64(),
+            },
             "num_points": self.num_points,
             "num_views": self.views.len(),
             "camera": {

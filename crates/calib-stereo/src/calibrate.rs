@@ -53,6 +53,13 @@ pub fn calibrate_stereo_with_model<D: LensDistortion>(
         let mut camera_options = camera_options.clone();
         camera_options.skip_bad_views = false;
         camera_options.solver.num_threads = options.solver.num_threads;
+        // This stage only provides the start of the joint optimization, which refines every
+        // parameter to the full tolerance: stop at a relative cost change of 1e-6 (the last
+        // iterations of a full convergence move the parameters by far less than the joint
+        // stage's first step) and skip the uncertainties.
+        camera_options.solver.function_tolerance =
+            camera_options.solver.function_tolerance.max(1e-6);
+        camera_options.compute_uncertainty = false;
         let obs = Observations {
             image_size: Some(size),
             views: kept
@@ -70,6 +77,7 @@ pub fn calibrate_stereo_with_model<D: LensDistortion>(
     };
     let left_single = single(Side::Left, &options.left, left_size)?;
     let right_single = single(Side::Right, &options.right, right_size)?;
+    let single_times = [left_single.elapsed, right_single.elapsed];
 
     let left_poses: Vec<Pose> = left_single.views.iter().map(|v| v.pose).collect();
     let right_poses: Vec<Pose> = right_single.views.iter().map(|v| v.pose).collect();
@@ -89,6 +97,7 @@ pub fn calibrate_stereo_with_model<D: LensDistortion>(
         left_poses,
         rig0,
         start,
+        single_times,
     };
     match options.rotation {
         RotationKind::EulerXyz => optimize::<D, EulerXyz>(setup, options),
@@ -176,6 +185,7 @@ struct Setup<'a, D> {
     left_poses: Vec<Pose>,
     rig0: Pose,
     start: Instant,
+    single_times: [std::time::Duration; 2],
 }
 
 /// Fixed components of one camera block in the joint optimization.
@@ -203,7 +213,9 @@ fn optimize<D: LensDistortion, P: RotationParameterization>(
         left_poses,
         rig0,
         start,
+        single_times,
     } = setup;
+    let joint_start = Instant::now();
     let n_cam = 4 + D::NUM_PARAMS;
     let pairs: Vec<PairData> = kept
         .iter()
@@ -287,6 +299,7 @@ fn optimize<D: LensDistortion, P: RotationParameterization>(
     let initial_cost = residual_costs(&cost, solver.problem(), &x)?;
     let initial_rms = (initial_cost.iter().sum::<f64>() / total_points as f64).sqrt();
     let report = solver.solve(&cost, &mut x)?;
+    let joint_done = Instant::now();
     let covariance = solver.covariance(&cost, &x)?;
     let problem = solver.problem();
 
@@ -392,6 +405,12 @@ fn optimize<D: LensDistortion, P: RotationParameterization>(
         initial_rms,
         solver: report,
         elapsed: start.elapsed(),
+        stage_times: [
+            single_times[0],
+            single_times[1],
+            joint_done - joint_start,
+            joint_done.elapsed(),
+        ],
     };
     check_finite(&result)?;
     Ok(result)

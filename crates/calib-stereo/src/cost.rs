@@ -7,12 +7,14 @@
 //! `rig * pose_j`; its Jacobians with respect to `pose_j` and the rig follow the chain rule of
 //! `camera_model::pose::composition`.
 
+use calib_single::cost::compact_targets;
 use camera_model::pose::composition::DifferentiableComposition;
 use camera_model::{
     Camera, CameraPointJacobians, DifferentiablePose, LensDistortion, ParamJacobian, Pose,
     RotationParameterization,
 };
-use lm_solver::{CostFunction, EvaluationError, JacobianBlocks, ResidualBlockId};
+use lm_solver::gram::CompactGram;
+use lm_solver::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks, ResidualBlockId};
 use nalgebra::{Point3, Vector2, Vector6};
 use std::marker::PhantomData;
 
@@ -252,13 +254,186 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for StereoCost
         }
         Ok(())
     }
+
+    /// The fused path (see [`CostFunction::evaluate_gram`]): each pixel row has few structural
+    /// non-zeros, accumulated as compact rows (`lm_solver::gram::CompactGram`). Left views use the
+    /// single-camera rows `[focal, principal point, k (4), pose (6)]`; right views 15-wide rows
+    /// from which the twelve pose and rig derivatives follow by a fixed map per pair (see the
+    /// comment in the body), the focal entry going to the left camera's columns when both
+    /// cameras share the focal length. Implemented for models with four distortion coefficients.
+    fn evaluate_gram(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        gram: &mut GramBlocks<'_>,
+    ) -> Option<Result<f64, EvaluationError>> {
+        if D::NUM_PARAMS != 4 {
+            return None;
+        }
+        let pair_index = block.0 / 2;
+        let pair = &self.pairs[pair_index];
+        let pose_params = Vector6::from_column_slice(params[1]);
+        let n = gram.cols();
+        let mut squared = 0.0;
+        if block.0.is_multiple_of(2) {
+            let camera = self.left_camera(params[0]);
+            let pose = DifferentiablePose::new::<P>(&pose_params);
+            let (mut gx, mut gy) = (CompactGram::<12>::new(), CompactGram::<12>::new());
+            for (i, (x, m)) in pair.object.iter().zip(&pair.left).enumerate() {
+                let (s, ds_dm) = pose.transform_with_jacobian(x);
+                let j = match camera.project_camera_point_with_jacobians(&s) {
+                    Ok(j) => j,
+                    Err(_) => return Some(Err(behind(pair_index, "left", i))),
+                };
+                let d_pose = j.d_camera_point * ds_dm;
+                let dd = ParamJacobian::as_slice(&j.d_distortion);
+                let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
+                squared += rx * rx + ry * ry;
+                let row = |r: usize, d: f64| {
+                    [
+                        d,
+                        1.0,
+                        dd[r],
+                        dd[2 + r],
+                        dd[4 + r],
+                        dd[6 + r],
+                        d_pose[(r, 0)],
+                        d_pose[(r, 1)],
+                        d_pose[(r, 2)],
+                        d_pose[(r, 3)],
+                        d_pose[(r, 4)],
+                        d_pose[(r, 5)],
+                    ]
+                };
+                gx.push(&row(0, j.d_intrinsics[(0, 0)]), rx);
+                gy.push(&row(1, j.d_intrinsics[(1, 1)]), ry);
+            }
+            let (camera_cols, pose_cols) = (gram.block(0).map(|b| b.0), gram.block(1).map(|b| b.0));
+            let (g, gradient) = gram.parts_mut();
+            g.fill(0.0);
+            gradient.fill(0.0);
+            for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
+                let targets =
+                    compact_targets(row_y, camera_cols, pose_cols, self.coupling.left_aspect);
+                sums.scatter(&targets, g, gradient, n);
+            }
+            return Some(Ok(squared));
+        }
+        let left_block: &[f64] = if self.coupling.same_focal_length {
+            params[3]
+        } else {
+            params[0]
+        };
+        let camera = self.right_camera(params[0], left_block);
+        let pose = DifferentiablePose::new::<P>(&pose_params);
+        let rig = DifferentiablePose::new::<P>(&Vector6::from_column_slice(params[2]));
+        let (omega_pose, omega_rig) = (pose.body_generators(), rig.body_generators());
+        let r_left_t = pose.rotation.transpose();
+        // With D = (dp/ds) R_s and the body-frame generators (dR/drho_k = R [omega_k]x), each row's
+        // pose and rig derivatives are fixed linear maps of three 3-vectors per point:
+        //   dp/dt_L = D_r,  dp/dt_s = R_s D_r,  dp/drho_s = Omega_s^T (q x D_r),
+        //   dp/drho_L = Omega_L^T (X x R_L^T D_r),  q = R_L X + t_L,
+        // so the compact row is [focal, principal point, k (4), D_r, q x D_r, X x R_L^T D_r].
+        let (mut gx, mut gy) = (CompactGram::<15>::new(), CompactGram::<15>::new());
+        for (i, (x, m)) in pair.object.iter().zip(&pair.right).enumerate() {
+            let q = pose.rotation * x.coords + pose.translation;
+            let s = rig.rotation * q + rig.translation;
+            let j = match camera.project_camera_point_with_jacobians(&s) {
+                Ok(j) => j,
+                Err(_) => return Some(Err(behind(pair_index, "right", i))),
+            };
+            let d = j.d_camera_point * rig.rotation;
+            let dd = ParamJacobian::as_slice(&j.d_distortion);
+            let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
+            squared += rx * rx + ry * ry;
+            let row = |r: usize, focal: f64| {
+                let dr = nalgebra::Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]);
+                let e = q.cross(&dr);
+                let f = x.coords.cross(&(r_left_t * dr));
+                [
+                    focal,
+                    1.0,
+                    dd[r],
+                    dd[2 + r],
+                    dd[4 + r],
+                    dd[6 + r],
+                    dr.x,
+                    dr.y,
+                    dr.z,
+                    e.x,
+                    e.y,
+                    e.z,
+                    f.x,
+                    f.y,
+                    f.z,
+                ]
+            };
+            gx.push(&row(0, j.d_intrinsics[(0, 0)]), rx);
+            gy.push(&row(1, j.d_intrinsics[(1, 1)]), ry);
+        }
+        let right_cols = gram.block(0).map(|b| b.0);
+        let pose_cols = gram.block(1).map(|b| b.0);
+        let rig_cols = gram.block(2).map(|b| b.0);
+        let left_cols = if self.coupling.same_focal_length {
+            gram.block(3).map(|b| b.0)
+        } else {
+            None
+        };
+        let (g, gradient) = gram.parts_mut();
+        g.fill(0.0);
+        gradient.fill(0.0);
+        // At most 6 camera + 3 + 9 pose + 18 rig entries: a fixed array, no allocation.
+        let mut storage = [(0usize, 0usize, 0.0f64); 40];
+        for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
+            let mut count = 0;
+            let mut push = |e: (usize, usize, f64)| {
+                storage[count] = e;
+                count += 1;
+            };
+            // Camera entries as in a single-camera row (no pose columns here).
+            let single = compact_targets(row_y, right_cols, None, self.coupling.right_aspect);
+            for (a, t) in single.iter().take(6).enumerate() {
+                if let Some((c, f)) = *t
+                    && !(a == 0 && self.coupling.same_focal_length)
+                {
+                    push((a, c, f));
+                }
+            }
+            if self.coupling.same_focal_length {
+                // The focal lengths are the left camera's (fy_L = fx_L / r with its fixed aspect).
+                if let Some(c) = left_cols {
+                    push(match (row_y, self.coupling.left_aspect) {
+                        (false, _) => (0, c, 1.0),
+                        (true, Some(r)) => (0, c, 1.0 / r),
+                        (true, None) => (0, c + 1, 1.0),
+                    });
+                }
+            }
+            for k in 0..3 {
+                if let Some(p) = pose_cols {
+                    push((6 + k, p + 3 + k, 1.0));
+                    for i in 0..3 {
+                        push((12 + i, p + k, omega_pose[(i, k)]));
+                    }
+                }
+                if let Some(c) = rig_cols {
+                    for i in 0..3 {
+                        push((6 + i, c + 3 + k, rig.rotation[(k, i)]));
+                        push((9 + i, c + k, omega_rig[(i, k)]));
+                    }
+                }
+            }
+            sums.scatter_map(&storage[..count], g, gradient, n);
+        }
+        Some(Ok(squared))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use camera_model::{AxisAngle, BrownConrady, EulerXyz};
-    use lm_solver::numdiff::check_cost_function;
+    use lm_solver::numdiff::{check_cost_function, check_gram};
     use nalgebra::Vector3;
     use proptest::prelude::*;
 
@@ -314,7 +489,12 @@ mod tests {
             1e-5,
             1.0,
         )
-        .map_err(|e| format!("right: {e}"))
+        .map_err(|e| format!("right: {e}"))?;
+        // The fused Gram products equal those of the (checked) Jacobian.
+        check_gram(&cost, ResidualBlockId(0), &[&cameras.0, &pose], 24, 1e-11)
+            .map_err(|e| format!("left gram: {e}"))?;
+        check_gram(&cost, ResidualBlockId(1), &right_params, 24, 1e-11)
+            .map_err(|e| format!("right gram: {e}"))
     }
 
     proptest! {

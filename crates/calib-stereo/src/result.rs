@@ -95,6 +95,9 @@ pub struct StereoCalibration<D> {
     pub solver: SolverReport,
     /// Wall time of the whole stereo calibration (single-camera calibrations included).
     pub elapsed: Duration,
+    /// Wall time of the single-camera calibrations (left, right), the joint optimization and the
+    /// covariance with result assembly.
+    pub stage_times: [Duration; 4],
 }
 
 fn matrix_json(m: &Matrix3<f64>) -> Value {
@@ -192,6 +195,12 @@ impl<D: LensDistortion> StereoCalibration<D> {
             "distortion_model": D::NAME,
             "rms": self.rms,
             "elapsed_seconds": self.elapsed.as_secs_f64(),
+            "stage_seconds": {
+                "left_single_camera": self.stage_times[0].as_secs_f64(),
+                "right_single_camera": self.stage_times[1].as_secs_f64(),
+                "joint_optimization": self.stage_times[2].as_secs_f64(),
+                "uncertainty": self.stage_times[3].as_secs_f64(),
+            },
             "num_pairs": self.pairs.len(),
             "left": self.left.to_json(),
             "right": self.right.to_json(),

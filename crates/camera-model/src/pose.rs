@@ -109,6 +109,26 @@ impl DifferentiablePose {
         }
     }
 
+    /// The body-frame generators `omega_k` of the rotation parameters: `dR/drho_k = R [omega_k]x`
+    /// (columns of the returned matrix). For any parameterization `R^T dR/drho_k` is skew
+    /// symmetric, and its vector is `omega_k`. They let a derivative `(dR/drho_k) X` be written as
+    /// `R (omega_k x X)`, which is linear in `omega_k` with a point-dependent factor.
+    pub fn body_generators(&self) -> Matrix3<f64> {
+        let mut omega = Matrix3::zeros();
+        for (k, d) in self.rotation_derivatives.iter().enumerate() {
+            let m = self.rotation.transpose() * d;
+            omega.set_column(
+                k,
+                &Vector3::new(
+                    0.5 * (m[(2, 1)] - m[(1, 2)]),
+                    0.5 * (m[(0, 2)] - m[(2, 0)]),
+                    0.5 * (m[(1, 0)] - m[(0, 1)]),
+                ),
+            );
+        }
+        omega
+    }
+
     /// The plain pose.
     pub fn pose(&self) -> Pose {
         Pose::new(self.rotation, self.translation)
@@ -329,6 +349,17 @@ mod tests {
                 m.as_slice(), 12, 1e-6);
             let r = compare_jacobians(d_rt_d_params::<AxisAngle>(&m).as_slice(), &numeric, 12, 1e-6, 1e-3);
             prop_assert!(r.is_ok(), "{:?}", r);
+        }
+
+        /// `dR/drho_k = R [omega_k]x` with the body-frame generators, for both parameterizations.
+        #[test]
+        fn body_generators_reproduce_the_rotation_derivatives(m in params(), axis_angle in prop::bool::ANY) {
+            let pose = if axis_angle { DifferentiablePose::new::<AxisAngle>(&m) } else { DifferentiablePose::new::<EulerXyz>(&m) };
+            let omega = pose.body_generators();
+            for k in 0..3 {
+                let rebuilt = pose.rotation * crate::rotation::skew(&omega.column(k).into_owned());
+                prop_assert!((rebuilt - pose.rotation_derivatives[k]).norm() < 1e-12);
+            }
         }
 
         /// The per-point contracted derivatives equal the literal chain of the specification:

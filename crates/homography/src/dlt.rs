@@ -15,7 +15,7 @@
 //! points (see [`normalization`](crate::normalization_matrix)), and the normalization is
 //! undone afterwards: `H = T_m^-1 H' T_M`.
 
-use nalgebra::{DMatrix, Matrix3, Point2, SVD};
+use nalgebra::{Matrix3, Point2, SMatrix, SymmetricEigen};
 
 use crate::error::HomographyError;
 use crate::normalization::{apply, inverse};
@@ -24,18 +24,14 @@ use crate::validate::{check_configuration, scale_to_unit_h33};
 /// Relative threshold on the singular values of the normalized DLT matrix `L'` that defines
 /// its numerical rank: `sigma_i` counts when `sigma_i > RANK_THRESHOLD * sigma_1`.
 ///
-/// A homography needs rank 8 (a one-dimensional null space). Exact degeneracies, such as
-/// repeated points or three collinear points out of four, leave the second smallest
-/// singular value at rounding level (below `1e-15 * sigma_1` for the order-one entries of
-/// the normalized system). Configurations in general position give ratios that reflect the
-/// geometry: about `0.25` for full chessboard views, and still around the relative size of
-/// the offset when a point is moved slightly off a degenerate position. `1e-10` leaves
-/// margins of several orders of magnitude on both sides.
-pub const RANK_THRESHOLD: f64 = 1e-10;
-
-/// Upper bound on the total number of implicit-shift SVD iterations (a 9-column problem
-/// converges in a few dozen).
-const SVD_MAX_ITERATIONS: usize = 10_000;
+/// A homography needs rank 8 (a one-dimensional null space). The singular values are the square
+/// roots of the eigenvalues of the 9x9 normal matrix `L'^T L'`, whose rounding errors are about
+/// `eps * sigma_1^2`; an exactly degenerate configuration (repeated points, three collinear
+/// points out of four) therefore shows `sigma_8` at about `sqrt(eps) * sigma_1 ~ 1.5e-8 sigma_1`.
+/// Configurations in general position give ratios that reflect the geometry: about `0.25` for
+/// full chessboard views. `1e-6` sits two orders of magnitude above the rounding level and five
+/// below real views.
+pub const RANK_THRESHOLD: f64 = 1e-6;
 
 /// Estimates the homography with the normalized DLT, without nonlinear refinement.
 ///
@@ -56,63 +52,51 @@ const SVD_MAX_ITERATIONS: usize = 10_000;
 /// * [`HomographyError::RankDeficient`]: the points do not determine a unique homography
 ///   (see [`RANK_THRESHOLD`]);
 /// * [`HomographyError::DegenerateSolution`]: the solution has `H33 ~ 0` (see
-///   [`H33_THRESHOLD`](crate::H33_THRESHOLD)) or the SVD failed.
+///   [`H33_THRESHOLD`](crate::H33_THRESHOLD)) or the system has non-finite entries.
 pub fn dlt(object: &[Point2<f64>], image: &[Point2<f64>]) -> Result<Matrix3<f64>, HomographyError> {
     let (t_object, t_image) = check_configuration(object, image)?;
 
-    // With exactly four points L' has 8 rows; the thin SVD of an 8 x 9 matrix would only
-    // return 8 right singular vectors and miss the null vector. A zero row changes neither
-    // the solution nor the singular values but makes V^T square.
-    let rows = (2 * object.len()).max(9);
-    let mut l = DMatrix::<f64>::zeros(rows, 9);
-    for (i, (m_obj, m_img)) in object.iter().zip(image).enumerate() {
+    // M = L'^T L', accumulated point by point: each point adds the two rows
+    // [p.x, p.y, 1, 0, 0, 0, -q.x p.x, -q.x p.y, -q.x] and [0, 0, 0, p.x, p.y, 1, -q.y p.x, ...],
+    // whose six non-zeros each give 21 products. The null vector of L' is the eigenvector of M
+    // with the smallest eigenvalue; Hartley's normalization keeps L' well conditioned, so the
+    // squared condition number of M costs no accuracy that matters here, and M is 9x9 whatever
+    // the number of points.
+    let mut m = SMatrix::<f64, 9, 9>::zeros();
+    for (m_obj, m_img) in object.iter().zip(image) {
         let p = apply(&t_object, m_obj);
         let q = apply(&t_image, m_img);
-        let r = 2 * i;
-        l[(r, 0)] = p.x;
-        l[(r, 1)] = p.y;
-        l[(r, 2)] = 1.0;
-        l[(r, 6)] = -q.x * p.x;
-        l[(r, 7)] = -q.x * p.y;
-        l[(r, 8)] = -q.x;
-        l[(r + 1, 3)] = p.x;
-        l[(r + 1, 4)] = p.y;
-        l[(r + 1, 5)] = 1.0;
-        l[(r + 1, 6)] = -q.y * p.x;
-        l[(r + 1, 7)] = -q.y * p.y;
-        l[(r + 1, 8)] = -q.y;
+        for (offset, target) in [(0usize, q.x), (3, q.y)] {
+            let values = [p.x, p.y, 1.0, -target * p.x, -target * p.y, -target];
+            let columns = [offset, offset + 1, offset + 2, 6, 7, 8];
+            for (a, &ca) in columns.iter().enumerate() {
+                for (b, &cb) in columns.iter().enumerate().skip(a) {
+                    m[(ca, cb)] += values[a] * values[b];
+                }
+            }
+        }
     }
-
-    let svd = SVD::try_new_unordered(l, false, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(
-        HomographyError::DegenerateSolution {
-            reason: "the SVD of the DLT system did not converge",
-        },
-    )?;
-    let v_t = svd
-        .v_t
-        .as_ref()
-        .ok_or(HomographyError::DegenerateSolution {
-            reason: "the SVD did not return right singular vectors",
-        })?;
-    let sigma = &svd.singular_values;
-    if !sigma.iter().all(|s| s.is_finite()) {
+    let m = SMatrix::<f64, 9, 9>::from_fn(|i, j| if i <= j { m[(i, j)] } else { m[(j, i)] });
+    if !m.iter().all(|v| v.is_finite()) {
         return Err(HomographyError::DegenerateSolution {
-            reason: "the SVD of the DLT system produced non-finite values",
+            reason: "the DLT system has non-finite entries",
         });
     }
-
-    let largest = sigma.max();
-    let rank = sigma
+    let eigen = SymmetricEigen::new(m);
+    let lambda = &eigen.eigenvalues;
+    let largest = lambda.max();
+    let sigma_threshold = RANK_THRESHOLD * largest.max(0.0).sqrt();
+    let rank = lambda
         .iter()
-        .filter(|&&s| s > RANK_THRESHOLD * largest)
+        .filter(|&&l| l.max(0.0).sqrt() > sigma_threshold)
         .count();
     if rank < 8 {
         return Err(HomographyError::RankDeficient { rank });
     }
-    let smallest = (0..sigma.len())
-        .min_by(|&a, &b| sigma[a].total_cmp(&sigma[b]))
+    let smallest = (0..9)
+        .min_by(|&a, &b| lambda[a].total_cmp(&lambda[b]))
         .unwrap_or(0);
-    let x = v_t.row(smallest);
+    let x = eigen.eigenvectors.column(smallest);
 
     // Entries of x are the rows of H' one after the other; Matrix3::new is row-major.
     let h_normalized = Matrix3::new(x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]);

@@ -82,7 +82,7 @@ pub(crate) fn normalization_matrix_for(
     let (cx, cy) = (sum_x / n, sum_y / n);
     let mean_distance = points
         .iter()
-        .map(|p| (p.x - cx).hypot(p.y - cy))
+        .map(|p| ((p.x - cx).powi(2) + (p.y - cy).powi(2)).sqrt())
         .sum::<f64>()
         / n;
     let largest_coordinate = points

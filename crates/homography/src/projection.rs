@@ -49,7 +49,9 @@ pub(crate) fn project(h: &Matrix3<f64>, p: &Point2<f64>) -> Vector2<f64> {
     let u = h[(0, 0)] * p.x + h[(0, 1)] * p.y + h[(0, 2)];
     let v = h[(1, 0)] * p.x + h[(1, 1)] * p.y + h[(1, 2)];
     let w = h[(2, 0)] * p.x + h[(2, 1)] * p.y + h[(2, 2)];
-    Vector2::new(u / w, v / w)
+    // The same arithmetic as the refinement's linearization, so both give identical costs.
+    let inv_w = 1.0 / w;
+    Vector2::new(u * inv_w, v * inv_w)
 }
 
 /// Sum over points of the squared pixel distance between the projection and the

@@ -19,7 +19,7 @@ use nalgebra::{Cholesky, Matrix3, Point2, SMatrix, SVector};
 
 use crate::dlt::dlt;
 use crate::error::HomographyError;
-use crate::projection::{project_with_jacobian, sum_squared_residuals};
+
 use crate::validate::{check_configuration, scale_to_unit_h33};
 
 /// Stopping rules of the Gauss-Newton refinement.
@@ -111,39 +111,26 @@ pub fn refine(
     let mut h = scale_to_unit_h33(h0, object)?;
     let n = object.len() as f64;
 
-    let mut cost = sum_squared_residuals(&h, object, image);
-    if !cost.is_finite() {
+    // One pass per iteration: the candidate's cost and normal equations are formed together,
+    // so an accepted step needs no second pass over the points.
+    let mut current = linearize(&h, object, image);
+    if !current.cost.is_finite() {
         return Err(HomographyError::DegenerateSolution {
             reason: "the initial homography maps a data point to infinity",
         });
     }
-    let initial_cost = cost;
+    let initial_cost = current.cost;
     let mut iterations = 0;
 
     let termination = loop {
+        let cost = current.cost;
         if cost == 0.0 {
             break RefineTermination::CostTolerance;
         }
         if iterations >= options.max_iterations {
             break RefineTermination::MaxIterations;
         }
-
-        let mut jtj = SMatrix::<f64, 8, 8>::zeros();
-        let mut jtr = SVector::<f64, 8>::zeros();
-        // First-order bound on the rounding error of the cost: each residual component
-        // r = x_projected - x_measured is off by at most ~2 eps |x_projected|, which moves
-        // r^2 by 2 |r| * 2 eps |x_projected|.
-        let mut cost_rounding = 0.0;
-        for (m_obj, m_img) in object.iter().zip(image) {
-            let (projected, j) = project_with_jacobian(&h, m_obj);
-            let r = projected - m_img.coords;
-            jtj += j.transpose() * j;
-            jtr += j.transpose() * r;
-            cost_rounding += r.abs().dot(&projected.abs());
-        }
-        cost_rounding *= 4.0 * f64::EPSILON;
-
-        let Some(step) = solve_scaled(&jtj, &jtr) else {
+        let Some(step) = solve_scaled(&current.jtj, &current.jtr) else {
             break RefineTermination::SingularSystem;
         };
         let parameter_norm = h
@@ -160,7 +147,8 @@ pub fn refine(
             // Column-major storage: the first eight entries are exactly the parameters.
             candidate[k] += d;
         }
-        let new_cost = sum_squared_residuals(&candidate, object, image);
+        let next = linearize(&candidate, object, image);
+        let new_cost = next.cost;
         // An infinite cost is larger than the (finite) current one; NaN is rejected too.
         if new_cost.is_nan() || new_cost > cost {
             // Residuals of tenths of a pixel are differences of coordinates in the hundreds,
@@ -169,7 +157,8 @@ pub fn refine(
             // alone: that is convergence, not a failed step.
             break if relative_step < options.step_tolerance {
                 RefineTermination::StepTolerance
-            } else if step.predicted_decrease <= (options.cost_tolerance * cost).max(cost_rounding)
+            } else if step.predicted_decrease
+                <= (options.cost_tolerance * cost).max(current.cost_rounding)
             {
                 RefineTermination::CostTolerance
             } else {
@@ -179,7 +168,7 @@ pub fn refine(
 
         let relative_decrease = (cost - new_cost) / cost;
         h = candidate;
-        cost = new_cost;
+        current = next;
         iterations += 1;
 
         if relative_step < options.step_tolerance {
@@ -193,10 +182,71 @@ pub fn refine(
     Ok(HomographyEstimate {
         h,
         dlt_rms: (initial_cost / n).sqrt(),
-        rms: (cost / n).sqrt(),
+        rms: (current.cost / n).sqrt(),
         iterations,
         termination,
     })
+}
+
+/// The cost and normal equations of the refinement at one homography.
+struct Linearization {
+    /// Sum of squared residuals (infinite if a point maps to infinity).
+    cost: f64,
+    jtj: SMatrix<f64, 8, 8>,
+    jtr: SVector<f64, 8>,
+    /// First-order bound on the rounding error of `cost`.
+    cost_rounding: f64,
+}
+
+/// Sum of squared residuals, `J^T J` and `J^T r` in one pass. Each row of a point's 2x8 Jacobian
+/// has five non-zeros (`x` does not depend on `h21, h22, h23`, `y` not on `h11, h12, h13`), so
+/// only those products are accumulated.
+fn linearize(h: &Matrix3<f64>, object: &[Point2<f64>], image: &[Point2<f64>]) -> Linearization {
+    let mut jtj = SMatrix::<f64, 8, 8>::zeros();
+    let mut jtr = SVector::<f64, 8>::zeros();
+    let (mut cost, mut cost_rounding) = (0.0, 0.0);
+    for (m_obj, m_img) in object.iter().zip(image) {
+        let (big_x, big_y) = (m_obj.x, m_obj.y);
+        let u = h[(0, 0)] * big_x + h[(0, 1)] * big_y + h[(0, 2)];
+        let v = h[(1, 0)] * big_x + h[(1, 1)] * big_y + h[(1, 2)];
+        let w = h[(2, 0)] * big_x + h[(2, 1)] * big_y + h[(2, 2)];
+        let inv_w = 1.0 / w;
+        let (x, y) = (u * inv_w, v * inv_w);
+        let (rx, ry) = (x - m_img.x, y - m_img.y);
+        let (ax, ay) = (big_x * inv_w, big_y * inv_w);
+        // Columns h11 h21 h31 h12 h22 h32 h13 h23 = 0..8 (see `project_with_jacobian`).
+        let rows = [
+            ([0usize, 2, 3, 5, 6], [ax, -x * ax, ay, -x * ay, inv_w], rx),
+            ([1, 2, 4, 5, 7], [ax, -y * ax, ay, -y * ay, inv_w], ry),
+        ];
+        for (columns, values, r) in rows {
+            for a in 0..5 {
+                jtr[columns[a]] += values[a] * r;
+                for b in a..5 {
+                    jtj[(columns[a], columns[b])] += values[a] * values[b];
+                }
+            }
+        }
+        cost += rx * rx + ry * ry;
+        // Each residual component is off by at most ~2 eps |x_projected|, which moves r^2 by
+        // 2 |r| * 2 eps |x_projected|.
+        cost_rounding += rx.abs() * x.abs() + ry.abs() * y.abs();
+    }
+    // The upper triangle was accumulated (columns are increasing within each row pattern).
+    for j in 0..8 {
+        for i in j + 1..8 {
+            jtj[(i, j)] = jtj[(j, i)];
+        }
+    }
+    if !cost.is_finite() {
+        cost = f64::INFINITY;
+    }
+    Linearization {
+        cost,
+        jtj,
+        jtr,
+        cost_rounding: 4.0 * f64::EPSILON * cost_rounding,
+    }
 }
 
 /// A Gauss-Newton step with the quantities the stopping rules need.

@@ -62,6 +62,41 @@ impl JacobianBlocks<'_> {
     }
 }
 
+/// The Gram matrix `J^T J` and gradient `J^T r` of one residual block, to be filled by
+/// [`CostFunction::evaluate_gram`].
+///
+/// The columns are those of the block's Jacobian: parameter block `k` (in the order given to
+/// [`ProblemBuilder::add_residual_block`](crate::ProblemBuilder::add_residual_block)) occupies
+/// columns `block(k)`; constant blocks have no columns. The Gram matrix is column-major
+/// `cols x cols` and every entry must be written (both triangles); the buffers are reused
+/// between residual blocks and are not cleared.
+pub struct GramBlocks<'a> {
+    pub(crate) gram: &'a mut [f64],
+    pub(crate) gradient: &'a mut [f64],
+    pub(crate) cols: usize,
+    pub(crate) layout: &'a [(usize, usize)],
+}
+
+impl GramBlocks<'_> {
+    /// Number of columns (and rows) of the Gram matrix.
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// First column and dimension of the `k`-th parameter block, or `None` if it is constant.
+    #[inline]
+    pub fn block(&self, k: usize) -> Option<(usize, usize)> {
+        let (col, dim) = self.layout[k];
+        (col != usize::MAX).then_some((col, dim))
+    }
+
+    /// The Gram matrix (`cols x cols`, column-major) and the gradient (`cols`).
+    #[inline]
+    pub fn parts_mut(&mut self) -> (&mut [f64], &mut [f64]) {
+        (self.gram, self.gradient)
+    }
+}
+
 /// Residuals and analytic Jacobians of every residual block of a problem.
 ///
 /// The solver calls `evaluate` for each residual block, possibly from several threads at once
@@ -83,4 +118,24 @@ pub trait CostFunction: Sync {
         residuals: &mut [f64],
         jacobians: Option<&mut JacobianBlocks<'_>>,
     ) -> Result<(), EvaluationError>;
+
+    /// Optional fast path: evaluate residual block `block` and write its Gram matrix `J^T J` and
+    /// gradient `J^T r` directly (see [`GramBlocks`]), returning the squared residual norm
+    /// `|r|^2`.
+    ///
+    /// A cost function that knows the structure of its Jacobian (zeros, repeated factors) can
+    /// accumulate these products point by point, fused with the evaluation, without writing the
+    /// Jacobian out. The default returns `None`, and the solver forms the products from
+    /// [`CostFunction::evaluate`]'s Jacobian. The solver uses this path only for residual blocks
+    /// with the trivial loss; it zeroes the rows and columns of fixed components itself. Results
+    /// must agree with `evaluate` (`lm_solver::numdiff::check_gram` tests that).
+    fn evaluate_gram(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        gram: &mut GramBlocks<'_>,
+    ) -> Option<Result<f64, EvaluationError>> {
+        let _ = (block, params, gram);
+        None
+    }
 }

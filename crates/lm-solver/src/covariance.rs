@@ -127,7 +127,8 @@ impl Covariance {
 impl Solver {
     /// Covariance of the parameters `x` (normally the solution of [`Solver::solve`]).
     ///
-    /// Re-linearizes at `x`, forms the undamped Schur complement of the reduced blocks, checks its
+    /// Linearizes at `x` (unless the last solve ended there, whose linearization is reused), forms
+    /// the undamped Schur complement of the reduced blocks, checks its
     /// numerical rank (eigenvalues of the Jacobi-scaled matrix against [`RANK_TOLERANCE`]) and
     /// inverts it.
     pub fn covariance<C: CostFunction>(
@@ -152,12 +153,17 @@ impl Solver {
             });
         }
         let pool = self.pool.as_ref();
-        self.ne
-            .evaluate(problem, cost_fn, x, true, pool)
-            .map_err(|f| {
-                let (residual, message) = describe(&f);
-                CovarianceError::Evaluation { residual, message }
-            })?;
+        // Right after a solve the normal equations already belong to `x`.
+        if self.linearized_at.as_deref() != Some(x) {
+            self.linearized_at = None;
+            self.ne
+                .evaluate(problem, cost_fn, x, true, pool)
+                .map_err(|f| {
+                    let (residual, message) = describe(&f);
+                    CovarianceError::Evaluation { residual, message }
+                })?;
+            self.linearized_at = Some(x.to_vec());
+        }
         let sigma2 = 2.0 * self.ne.cost / (m - p) as f64;
         let n = problem.reduced_dim;
 

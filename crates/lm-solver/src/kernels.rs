@@ -4,30 +4,34 @@
 //! All loops have a fixed operation order, so results are bit-for-bit reproducible whatever thread
 //! runs them. Matrices are column-major: entry `(i, j)` of an `n`-row matrix is at `i + j * n`.
 
-/// Dot product with four independent accumulators (lets the compiler vectorize and pipeline the
-/// additions while keeping a fixed summation order).
+/// Dot product with sixteen independent accumulators: enough to keep the additions pipelined
+/// (eight SSE2 registers), few enough not to spill. The summation order is fixed, so results are
+/// reproducible whatever thread runs them.
 #[inline]
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0f64; 4];
-    let mut ca = a.chunks_exact(4);
-    let mut cb = b.chunks_exact(4);
+    let mut acc = [0.0f64; 16];
+    let mut ca = a.chunks_exact(16);
+    let mut cb = b.chunks_exact(16);
     for (x, y) in (&mut ca).zip(&mut cb) {
-        acc[0] += x[0] * y[0];
-        acc[1] += x[1] * y[1];
-        acc[2] += x[2] * y[2];
-        acc[3] += x[3] * y[3];
+        for lane in 0..16 {
+            acc[lane] += x[lane] * y[lane];
+        }
     }
     let mut tail = 0.0;
     for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
         tail += x * y;
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+    let mut quarter = [0.0; 4];
+    for (l, q) in quarter.iter_mut().enumerate() {
+        *q = (acc[l] + acc[l + 4]) + (acc[l + 8] + acc[l + 12]);
+    }
+    (quarter[0] + quarter[1]) + (quarter[2] + quarter[3]) + tail
 }
 
 /// `gram = J^T J` (full symmetric `cols x cols`) and `jtr = J^T r` for a column-major
-/// `rows x cols` matrix `jac`.
+/// `rows x cols` matrix `jac`: one [`dot`] per entry of the upper triangle and of `J^T r`.
 ///
 /// Cost: `rows * cols * (cols + 3) / 2` multiply-adds.
 pub(crate) fn gram_and_gradient(
@@ -41,12 +45,11 @@ pub(crate) fn gram_and_gradient(
     for j in 0..cols {
         let cj = &jac[j * rows..(j + 1) * rows];
         for i in 0..=j {
-            let ci = &jac[i * rows..(i + 1) * rows];
-            let v = dot(ci, cj);
+            let v = dot(&jac[i * rows..(i + 1) * rows], cj);
             gram[i + j * cols] = v;
             gram[j + i * cols] = v;
         }
-        jtr[j] = dot(cj, r);
+        jtr[j] = dot(cj, &r[..rows]);
     }
 }
 
@@ -142,18 +145,29 @@ mod tests {
 
     #[test]
     fn gram_matches_matrix_product() {
-        let j = DMatrix::from_fn(7, 3, |i, k| (i as f64 - 2.0) * (k as f64 + 0.5));
-        let r: Vec<f64> = (0..7).map(|i| i as f64 * 0.1).collect();
-        let mut gram = vec![0.0; 9];
-        let mut jtr = vec![0.0; 3];
-        gram_and_gradient(j.as_slice(), 7, 3, &r, &mut gram, &mut jtr);
-        let expected = j.transpose() * &j;
-        let expected_g = j.transpose() * nalgebra::DVector::from_vec(r);
-        for (a, b) in gram.iter().zip(expected.iter()) {
-            assert!((a - b).abs() < 1e-12);
-        }
-        for (a, b) in jtr.iter().zip(expected_g.iter()) {
-            assert!((a - b).abs() < 1e-12);
+        // Sizes around the 4-column and 4-row blocking.
+        for (rows, cols) in [(7, 3), (1, 1), (8, 4), (13, 9), (802, 14)] {
+            let j = DMatrix::from_fn(rows, cols, |i, k| {
+                ((i * 31 + k * 17) % 13) as f64 - 6.0 + 0.1 * k as f64
+            });
+            let r: Vec<f64> = (0..rows).map(|i| i as f64 * 0.1 - 1.0).collect();
+            let mut gram = vec![0.0; cols * cols];
+            let mut jtr = vec![0.0; cols];
+            gram_and_gradient(j.as_slice(), rows, cols, &r, &mut gram, &mut jtr);
+            let expected = j.transpose() * &j;
+            let expected_g = j.transpose() * nalgebra::DVector::from_vec(r);
+            for (a, b) in gram.iter().zip(expected.iter()) {
+                assert!(
+                    (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                    "{rows}x{cols}: {a} vs {b}"
+                );
+            }
+            for (a, b) in jtr.iter().zip(expected_g.iter()) {
+                assert!(
+                    (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                    "{rows}x{cols}: {a} vs {b}"
+                );
+            }
         }
     }
 }

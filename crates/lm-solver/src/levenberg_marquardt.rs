@@ -109,6 +109,12 @@ pub struct SolverOptions {
     /// problem and this value, never on the thread count, which is what makes results
     /// independent of the number of threads.
     pub chunk_work: usize,
+    /// Evaluate each trial point with its Jacobian and normal equations at once (default
+    /// `true`), instead of the cost alone followed by a linearization if the step is accepted.
+    /// When most steps are accepted (as in calibration) this saves one pass over the residuals per
+    /// iteration; each rejected step then wastes a linearization. Uses a second set of
+    /// normal-equation buffers.
+    pub eager_linearization: bool,
 }
 
 impl Default for SolverOptions {
@@ -124,6 +130,7 @@ impl Default for SolverOptions {
             linear_solver: LinearSolverKind::Auto,
             num_threads: 0,
             chunk_work: 150_000,
+            eager_linearization: true,
         }
     }
 }
@@ -182,6 +189,10 @@ pub struct Solver {
     pub(crate) problem: Problem,
     options: SolverOptions,
     pub(crate) ne: NormalEquations,
+    /// Second buffers for eager linearization of trial points.
+    trial_ne: Option<NormalEquations>,
+    /// The parameters `ne` was last linearized at (so a covariance at the solution can reuse it).
+    pub(crate) linearized_at: Option<Vec<f64>>,
     linear: LinearSolver,
     pub(crate) pool: Option<rayon::ThreadPool>,
     step: Vec<f64>,
@@ -207,6 +218,11 @@ impl Solver {
         let mut ne = NormalEquations::new(&problem, options.chunk_work);
         let linear = LinearSolver::new(options.linear_solver, &problem, &mut ne)
             .map_err(|e| SolverError::LinearSolverSetup(e.0))?;
+        let trial_ne = options.eager_linearization.then(|| {
+            let mut trial = NormalEquations::new(&problem, options.chunk_work);
+            linear.prepare(&problem, &mut trial);
+            trial
+        });
         let threads = match options.num_threads {
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             n => n,
@@ -226,6 +242,8 @@ impl Solver {
             problem,
             options,
             ne,
+            trial_ne,
+            linearized_at: None,
             linear,
             pool,
             step: vec![0.0; n],
@@ -285,6 +303,7 @@ impl Solver {
         }
         let pool = self.pool.as_ref();
         let t = Instant::now();
+        self.linearized_at = None;
         self.ne
             .evaluate(problem, cost_fn, x, true, pool)
             .map_err(|f| {
@@ -301,6 +320,7 @@ impl Solver {
         let mut lambda = options.damping.initial_lambda();
         let mut nu = 2.0;
         let mut diagonal_stale = true;
+        let mut last_gain: Option<f64> = None;
 
         let termination = loop {
             let gradient_max_norm = self.ne.gradient_max_norm();
@@ -369,16 +389,6 @@ impl Solver {
                     observer(&record);
                     break Termination::ParameterTolerance;
                 }
-                for ((t, a), b) in self.trial.iter_mut().zip(x.iter()).zip(&self.step) {
-                    *t = a + b;
-                }
-                let te = Instant::now();
-                let trial_cost = self
-                    .ne
-                    .evaluate(problem, cost_fn, &self.trial, false, pool)
-                    .unwrap_or(f64::INFINITY);
-                residual_evaluations += 1;
-                record.trial_cost = trial_cost;
                 // Model decrease: -g.step - 0.5 step^T H step = 0.5 (-g.step + step^T D step),
                 // using (H + D) step = -g.
                 let predicted = 0.5
@@ -389,6 +399,37 @@ impl Solver {
                         .zip(&self.damping)
                         .map(|((s, g), d)| -g * s + d * s * s)
                         .sum::<f64>();
+                // When the linear model has been reliable (the last accepted step's gain ratio was
+                // close to one) and it promises less than the tolerance, the minimum is reached to
+                // the tolerance: evaluating the trial point could not change that.
+                if last_gain.is_some_and(|g: f64| (0.75..=1.25).contains(&g))
+                    && predicted.is_finite()
+                    && predicted <= options.function_tolerance * cost
+                {
+                    record.gain_ratio = f64::NAN;
+                    iterations.push(record.clone());
+                    observer(&record);
+                    break Termination::FunctionTolerance;
+                }
+                for ((t, a), b) in self.trial.iter_mut().zip(x.iter()).zip(&self.step) {
+                    *t = a + b;
+                }
+                let te = Instant::now();
+                let trial_cost = match self.trial_ne.as_mut() {
+                    Some(trial_ne) => {
+                        jacobian_evaluations += 1;
+                        trial_ne
+                            .evaluate(problem, cost_fn, &self.trial, true, pool)
+                            .unwrap_or(f64::INFINITY)
+                    }
+                    None => {
+                        residual_evaluations += 1;
+                        self.ne
+                            .evaluate(problem, cost_fn, &self.trial, false, pool)
+                            .unwrap_or(f64::INFINITY)
+                    }
+                };
+                record.trial_cost = trial_cost;
                 let actual = cost - trial_cost;
                 let gain = actual / predicted;
                 record.gain_ratio = gain;
@@ -400,21 +441,27 @@ impl Solver {
                 if accepted {
                     x.copy_from_slice(&self.trial);
                     let previous = cost;
-                    match self.ne.evaluate(problem, cost_fn, x, true, pool) {
-                        Ok(_) => {}
-                        Err(f) => {
-                            let (residual, message) = describe(&f);
-                            record.evaluate_time = te.elapsed();
-                            evaluate_time += record.evaluate_time;
-                            iterations.push(record.clone());
-                            observer(&record);
-                            break Termination::NumericalFailure(format!(
-                                "linearization failed at an accepted point (residual block {residual}: {message})"
-                            ));
+                    if let Some(trial_ne) = self.trial_ne.as_mut() {
+                        // The trial point is already linearized: make it current.
+                        std::mem::swap(&mut self.ne, trial_ne);
+                    } else {
+                        match self.ne.evaluate(problem, cost_fn, x, true, pool) {
+                            Ok(_) => {}
+                            Err(f) => {
+                                let (residual, message) = describe(&f);
+                                record.evaluate_time = te.elapsed();
+                                evaluate_time += record.evaluate_time;
+                                iterations.push(record.clone());
+                                observer(&record);
+                                break Termination::NumericalFailure(format!(
+                                    "linearization failed at an accepted point (residual block {residual}: {message})"
+                                ));
+                            }
                         }
+                        jacobian_evaluations += 1;
                     }
-                    jacobian_evaluations += 1;
                     accepted_steps += 1;
+                    last_gain = Some(gain);
                     cost = self.ne.cost;
                     diagonal_stale = true;
                     match options.damping {
@@ -457,6 +504,11 @@ impl Solver {
             }
         };
 
+        // The normal equations belong to the returned parameters whatever the termination reason
+        // (rejected trials leave them untouched): a covariance at `x` can reuse them.
+        if !matches!(termination, Termination::NumericalFailure(_)) {
+            self.linearized_at = Some(x.to_vec());
+        }
         Ok(SolverReport {
             termination,
             initial_cost,

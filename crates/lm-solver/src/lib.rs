@@ -60,6 +60,7 @@
 
 pub mod cost;
 pub mod covariance;
+pub mod gram;
 mod kernels;
 pub mod levenberg_marquardt;
 pub mod linear_solver;
@@ -72,7 +73,7 @@ mod schur;
 mod sparse;
 pub mod test_problems;
 
-pub use cost::{CostFunction, EvaluationError, JacobianBlocks};
+pub use cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
 pub use covariance::{Covariance, CovarianceError, RANK_TOLERANCE};
 pub use levenberg_marquardt::{DampingPolicy, Solver, SolverError, SolverOptions};
 pub use linear_solver::LinearSolverKind;

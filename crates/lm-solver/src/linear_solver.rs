@@ -218,6 +218,16 @@ impl LinearSolver {
         })
     }
 
+    /// Sizes the per-chunk scratch of another set of normal equations for this solver (the
+    /// second buffers of eager linearization).
+    pub fn prepare(&self, problem: &Problem, ne: &mut NormalEquations) {
+        match self {
+            LinearSolver::DenseSchur { .. } => prepare_chunks(ne, Some(problem.reduced_dim)),
+            LinearSolver::SparseSchur { .. } => prepare_chunks(ne, None),
+            LinearSolver::SparseCholesky { .. } | LinearSolver::DenseReference { .. } => {}
+        }
+    }
+
     /// The concrete solver.
     pub fn kind(&self) -> LinearSolverKind {
         match self {
@@ -681,6 +691,79 @@ pub(crate) mod tests {
                         prop_assert_eq!(*s, 0.0);
                     }
                 }
+            }
+        }
+    }
+
+    /// The same linear residuals, with the Gram products supplied through the fused path
+    /// (`evaluate_gram`), formed naively from the A matrices.
+    struct FusedRandomLinear(RandomLinear);
+
+    impl CostFunction for FusedRandomLinear {
+        fn evaluate(
+            &self,
+            block: ResidualBlockId,
+            params: &[&[f64]],
+            residuals: &mut [f64],
+            jacobians: Option<&mut JacobianBlocks<'_>>,
+        ) -> Result<(), EvaluationError> {
+            self.0.evaluate(block, params, residuals, jacobians)
+        }
+
+        fn evaluate_gram(
+            &self,
+            block: ResidualBlockId,
+            params: &[&[f64]],
+            gram: &mut crate::cost::GramBlocks<'_>,
+        ) -> Option<Result<f64, EvaluationError>> {
+            let (rows, a, _) = &self.0.blocks[block.0];
+            let mut r = vec![0.0; *rows];
+            self.0.evaluate(block, params, &mut r, None).ok()?;
+            // Column c of the block's Jacobian (over non-constant parameter blocks).
+            let mut columns: Vec<Vec<f64>> = Vec::new();
+            for (k, a_k) in a.iter().enumerate() {
+                if gram.block(k).is_some() {
+                    for c in 0..params[k].len() {
+                        columns.push(a_k[c * rows..(c + 1) * rows].to_vec());
+                    }
+                }
+            }
+            let n = gram.cols();
+            let (g, grad) = gram.parts_mut();
+            for i in 0..n {
+                for j in 0..n {
+                    g[i + j * n] = columns[i].iter().zip(&columns[j]).map(|(x, y)| x * y).sum();
+                }
+                grad[i] = columns[i].iter().zip(&r).map(|(x, y)| x * y).sum();
+            }
+            Some(Ok(r.iter().map(|v| v * v).sum()))
+        }
+    }
+
+    proptest! {
+        /// The fused path gives the same normal equations (hence the same step) as the Jacobian
+        /// path, fixed components and constant blocks included; `check_gram` accepts it.
+        #[test]
+        fn fused_gram_path_matches_the_jacobian_path(seed in 0u64..u64::MAX) {
+            let (problem, cost, x) = random_problem(seed);
+            let damping: Vec<f64> = (0..problem.num_parameters())
+                .map(|i| if problem.is_fixed(i) { 1.0 } else { 0.5 })
+                .collect();
+            let generic = step_with(LinearSolverKind::DenseSchur, &problem, &cost, &x, &damping, 20).unwrap();
+            let fused_cost = FusedRandomLinear(cost);
+            let mut ne = NormalEquations::new(&problem, 20);
+            ne.evaluate(&problem, &fused_cost, &x, true, None).unwrap();
+            let mut solver = LinearSolver::new(LinearSolverKind::DenseSchur, &problem, &mut ne).unwrap();
+            let mut fused = vec![0.0; problem.num_parameters()];
+            solver.solve(&problem, &mut ne, &damping, &mut fused, None).unwrap();
+            let scale = generic.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
+            let diff = fused.iter().zip(&generic).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            prop_assert!(diff <= 1e-10 * scale, "{diff:e} vs {scale:e}");
+            for r in 0..problem.num_residual_blocks() {
+                let id = ResidualBlockId(r);
+                let params: Vec<&[f64]> = problem.residual_blocks_of(id).map(|b| problem.block(&x, b)).collect();
+                let check = crate::numdiff::check_gram(&fused_cost, id, &params, problem.residual_dim(id), 1e-12);
+                prop_assert!(check.is_ok(), "{:?}", check);
             }
         }
     }

@@ -17,7 +17,7 @@
 //! the shared parts (`U`, the reduced gradient, the cost) are added in chunk order, so the result
 //! is bit-for-bit the same with one thread or many.
 
-use crate::cost::{CostFunction, EvaluationError, JacobianBlocks};
+use crate::cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
 use crate::kernels::gram_and_gradient;
 use crate::loss::apply_correction;
 use crate::problem::{BlockRole, MAX_BLOCKS_PER_RESIDUAL, Problem, ResidualBlockId};
@@ -312,47 +312,83 @@ fn evaluate_residual<C: CostFunction>(
         refs[k] = &x[problem.offsets[p.block]..][..problem.dims[p.block]];
     }
     let params = &refs[..layout.params.len()];
-    let res = &mut chunk.res[..rows];
     let id = ResidualBlockId(r);
-    let outcome = if linearize {
-        let mut jacobians = JacobianBlocks {
-            buffer: &mut chunk.jac[..rows * cols],
-            rows,
-            layout: &layout.jac_layout,
-        };
-        cost_fn.evaluate(id, params, res, Some(&mut jacobians))
-    } else {
-        cost_fn.evaluate(id, params, res, None)
-    };
-    outcome.map_err(|error| EvaluationFailure::Error { residual: r, error })?;
-    let s: f64 = res.iter().map(|v| v * v).sum();
-    if !s.is_finite() {
-        return Err(EvaluationFailure::NonFinite { residual: r });
-    }
-    let rho = layout.loss.evaluate(s);
-    chunk.cost += 0.5 * rho[0];
-    if !linearize {
-        return Ok(());
-    }
-    let jac = &mut chunk.jac[..rows * cols];
-    if !layout.loss.is_trivial() {
-        apply_correction(rho, res, Some((jac, cols)));
-    }
-    // Fixed components: their columns do not take part.
-    for p in &layout.params {
-        if p.role == BlockRole::Constant {
-            continue;
-        }
-        let base = problem.offsets[p.block];
-        for c in 0..problem.dims[p.block] {
-            if problem.fixed_mask[base + c] {
-                jac[(p.col + c) * rows..(p.col + c + 1) * rows].fill(0.0);
-            }
-        }
-    }
     let gram = &mut chunk.gram[..cols * cols];
     let jtr = &mut chunk.jtr[..cols];
-    gram_and_gradient(jac, rows, cols, res, gram, jtr);
+    let fused = if linearize && layout.loss.is_trivial() {
+        let mut blocks = GramBlocks {
+            gram: &mut *gram,
+            gradient: &mut *jtr,
+            cols,
+            layout: &layout.jac_layout,
+        };
+        cost_fn.evaluate_gram(id, params, &mut blocks)
+    } else {
+        None
+    };
+    if let Some(outcome) = fused {
+        let s = outcome.map_err(|error| EvaluationFailure::Error { residual: r, error })?;
+        if !s.is_finite() {
+            return Err(EvaluationFailure::NonFinite { residual: r });
+        }
+        chunk.cost += 0.5 * s;
+        // Fixed components: zero rows and columns, as zero Jacobian columns would give.
+        for p in &layout.params {
+            if p.role == BlockRole::Constant {
+                continue;
+            }
+            let base = problem.offsets[p.block];
+            for c in 0..problem.dims[p.block] {
+                if problem.fixed_mask[base + c] {
+                    let col = p.col + c;
+                    gram[col * cols..(col + 1) * cols].fill(0.0);
+                    for k in 0..cols {
+                        gram[col + k * cols] = 0.0;
+                    }
+                    jtr[col] = 0.0;
+                }
+            }
+        }
+    } else {
+        let res = &mut chunk.res[..rows];
+        let outcome = if linearize {
+            let mut jacobians = JacobianBlocks {
+                buffer: &mut chunk.jac[..rows * cols],
+                rows,
+                layout: &layout.jac_layout,
+            };
+            cost_fn.evaluate(id, params, res, Some(&mut jacobians))
+        } else {
+            cost_fn.evaluate(id, params, res, None)
+        };
+        outcome.map_err(|error| EvaluationFailure::Error { residual: r, error })?;
+        let s: f64 = res.iter().map(|v| v * v).sum();
+        if !s.is_finite() {
+            return Err(EvaluationFailure::NonFinite { residual: r });
+        }
+        let rho = layout.loss.evaluate(s);
+        chunk.cost += 0.5 * rho[0];
+        if !linearize {
+            return Ok(());
+        }
+        let jac = &mut chunk.jac[..rows * cols];
+        if !layout.loss.is_trivial() {
+            apply_correction(rho, res, Some((jac, cols)));
+        }
+        // Fixed components: their columns do not take part.
+        for p in &layout.params {
+            if p.role == BlockRole::Constant {
+                continue;
+            }
+            let base = problem.offsets[p.block];
+            for c in 0..problem.dims[p.block] {
+                if problem.fixed_mask[base + c] {
+                    jac[(p.col + c) * rows..(p.col + c + 1) * rows].fill(0.0);
+                }
+            }
+        }
+        gram_and_gradient(jac, rows, cols, res, gram, jtr);
+    }
     // A NaN anywhere in J or r shows up in the Gram matrix or the gradient.
     if !gram.iter().chain(jtr.iter()).all(|v| v.is_finite()) {
         return Err(EvaluationFailure::NonFinite { residual: r });

@@ -19,7 +19,7 @@
 //! assert!(compare_jacobians(&analytic, &numeric, 2, 1e-8, 1e-10).is_ok());
 //! ```
 
-use crate::cost::{CostFunction, EvaluationError, JacobianBlocks};
+use crate::cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
 use crate::problem::ResidualBlockId;
 
 /// Central-difference Jacobian of `f: R^n -> R^m` at `x`.
@@ -146,6 +146,20 @@ pub enum CostCheckError {
     /// A Jacobian entry differs from its finite difference (columns are numbered over the
     /// concatenated parameter blocks).
     Mismatch(JacobianMismatch),
+    /// `evaluate_gram` returned `None`.
+    NoFusedPath,
+    /// An entry of the fused Gram matrix (`col` = `usize::MAX`: of the gradient; both: the squared
+    /// residual norm) differs from the product formed from the Jacobian.
+    GramMismatch {
+        /// Row.
+        row: usize,
+        /// Column.
+        col: usize,
+        /// From `evaluate_gram`.
+        fused: f64,
+        /// From `evaluate`'s Jacobian.
+        reference: f64,
+    },
 }
 
 impl std::fmt::Display for CostCheckError {
@@ -156,6 +170,16 @@ impl std::fmt::Display for CostCheckError {
                 write!(f, "residuals differ with and without Jacobians")
             }
             CostCheckError::Mismatch(m) => m.fmt(f),
+            CostCheckError::NoFusedPath => write!(f, "evaluate_gram is not implemented"),
+            CostCheckError::GramMismatch {
+                row,
+                col,
+                fused,
+                reference,
+            } => write!(
+                f,
+                "fused Gram entry ({row}, {col}): {fused:e} vs {reference:e}"
+            ),
         }
     }
 }
@@ -215,6 +239,84 @@ pub fn check_cost_function<C: CostFunction>(
     }
     compare_jacobians(&buffer, &numeric, rows, relative_tolerance, absolute_scale)
         .map_err(CostCheckError::Mismatch)
+}
+
+/// Checks a cost function's fused [`CostFunction::evaluate_gram`] against the products formed
+/// from [`CostFunction::evaluate`]'s Jacobian for one residual block (of dimension `rows`).
+///
+/// Every Gram entry must agree to `relative_tolerance * sqrt(G_ii G_jj)`, every gradient entry to
+/// `relative_tolerance * sqrt(G_ii |r|^2)` (the Cauchy-Schwarz bounds of the entries), and the
+/// squared residual norm to `relative_tolerance` relative. Fails with
+/// [`CostCheckError::NoFusedPath`] if `evaluate_gram` returns `None`.
+pub fn check_gram<C: CostFunction>(
+    cost: &C,
+    block: ResidualBlockId,
+    params: &[&[f64]],
+    rows: usize,
+    relative_tolerance: f64,
+) -> Result<(), CostCheckError> {
+    let mut layout = Vec::with_capacity(params.len());
+    let mut cols = 0;
+    for p in params {
+        layout.push((cols, p.len()));
+        cols += p.len();
+    }
+    let mut jac = vec![0.0; rows * cols];
+    let mut residuals = vec![0.0; rows];
+    let mut jacobians = JacobianBlocks {
+        buffer: &mut jac,
+        rows,
+        layout: &layout,
+    };
+    cost.evaluate(block, params, &mut residuals, Some(&mut jacobians))
+        .map_err(CostCheckError::Evaluation)?;
+    let (mut gram, mut gradient) = (vec![f64::NAN; cols * cols], vec![f64::NAN; cols]);
+    let mut blocks = GramBlocks {
+        gram: &mut gram,
+        gradient: &mut gradient,
+        cols,
+        layout: &layout,
+    };
+    let s = cost
+        .evaluate_gram(block, params, &mut blocks)
+        .ok_or(CostCheckError::NoFusedPath)?
+        .map_err(CostCheckError::Evaluation)?;
+    let column = |c: usize| &jac[c * rows..(c + 1) * rows];
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let diag: Vec<f64> = (0..cols).map(|c| dot(column(c), column(c))).collect();
+    let s_ref = dot(&residuals, &residuals);
+    let mismatch = |row: usize, col: usize, fused: f64, reference: f64, scale: f64| {
+        if (fused - reference).abs() <= relative_tolerance * scale && fused.is_finite() {
+            Ok(())
+        } else {
+            Err(CostCheckError::GramMismatch {
+                row,
+                col,
+                fused,
+                reference,
+            })
+        }
+    };
+    mismatch(usize::MAX, usize::MAX, s, s_ref, s_ref.abs())?;
+    for j in 0..cols {
+        mismatch(
+            j,
+            usize::MAX,
+            gradient[j],
+            dot(column(j), &residuals),
+            (diag[j] * s_ref).sqrt(),
+        )?;
+        for i in 0..cols {
+            mismatch(
+                i,
+                j,
+                gram[i + j * cols],
+                dot(column(i), column(j)),
+                (diag[i] * diag[j]).sqrt(),
+            )?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
