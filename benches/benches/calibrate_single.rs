@@ -4,8 +4,7 @@
 //! 1000 views of a 9x6 or 20x20 board, plus the bundled real set `data/sourishg1/left.json`
 //! (29 views, 9x6) when it is present.
 //!
-//! Stereo end-to-end benchmarks belong in `benches/calibrate_stereo.rs` (see the commented entry
-//! in `benches/Cargo.toml`), with the same sizes.
+//! Stereo end-to-end benchmarks: `benches/calibrate_stereo.rs`, same sizes.
 
 use calib_benches::{BOARD_9X6, BOARD_20X20, single_thread_options};
 use calib_single::{Observations, calibrate};

@@ -179,7 +179,8 @@ def main():
         out.append(f"- {n}")
     out.append(f"- Command: `{a.command}`")
     out.append("- Times: median solve time. OpenCV = perf_counter around the cv2 call; calib = "
-               "`elapsed_seconds` from its result JSON, one process per repeat. "
+               "`elapsed_seconds` from its result JSON (`--repeat R`: the median of R runs in one process, "
+               "like OpenCV's in-process repeats). "
                "Neither includes file reading or process start.")
     out.append("- RMS: OpenCV RMS is cv2's return value, computed on the float32 copies of the points "
                "that OpenCV requires; the last column compares calib's RMS with OpenCV's solution "

@@ -131,6 +131,10 @@ pub struct SingleArgs {
     /// Do not print the summary.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Run the calibration this many times in one process and report the median time in
+    /// `elapsed_seconds` (all times in `elapsed_seconds_all`): a warm timing, like a benchmark's.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub repeat: usize,
     #[command(flatten)]
     pub camera: CameraArgs,
 }
@@ -145,8 +149,20 @@ pub fn termination_warning(termination: &Termination) -> Option<String> {
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     let observations = Observations::read(&args.observations)?;
     let options = args.camera.options()?;
-    let result = calibrate(&observations, &options)
-        .map_err(|e| Failure(format!("{}: {e}", args.observations)))?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..args.repeat.max(1) {
+        let result = calibrate(&observations, &options)
+            .map_err(|e| Failure(format!("{}: {e}", args.observations)))?;
+        times.push(result.elapsed);
+        last = Some(result);
+    }
+    let Some(mut result) = last else {
+        return Err(Failure("nothing was run".into()));
+    };
+    let all: Vec<f64> = times.iter().map(|t| t.as_secs_f64()).collect();
+    times.sort();
+    result.elapsed = times[times.len() / 2];
     if let Termination::NumericalFailure(why) = &result.solver.termination {
         return Err(Failure(format!(
             "{}: calibration failed: {why}",
@@ -160,7 +176,9 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         eprintln!("calib: {warning}");
     }
     if let Some(path) = &args.output {
-        write_json(path, &result.to_json())?;
+        let mut json = result.to_json();
+        json["elapsed_seconds_all"] = serde_json::json!(all);
+        write_json(path, &json)?;
     }
     Ok(())
 }
