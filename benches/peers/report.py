@@ -136,6 +136,8 @@ def main():
         cv_rms = cv.get("rms") if cv else None
         our_ts = [d["elapsed_seconds"] for d in ours]
         our_t = statistics.median(our_ts) if our_ts else None
+        # With --repeat, one result holds every in-process run.
+        our_runs = sum(len(d.get("elapsed_seconds_all", [0])) for d in ours)
         our_rms_all = [d["rms"] for d in ours]
         our_rms = our_rms_all[0] if our_rms_all else None
         if our_rms_all and max(our_rms_all) - min(our_rms_all) > 1e-9:
@@ -153,7 +155,7 @@ def main():
             ratio, fmt_rms(cv_rms), fmt_rms(our_rms), diff, diff64,
         ])
         rep_cv = cv.get("repeats") if cv else 0
-        rep_note = f"{name}: {rep_cv} OpenCV / {len(our_ts)} calib repeats"
+        rep_note = f"{name}: {rep_cv} OpenCV / {our_runs} calib repeats"
         if status:
             rep_note += f"; {status}"
         if cv and cv.get("rms_f64_skipped"):
