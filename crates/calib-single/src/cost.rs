@@ -128,12 +128,8 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for Reprojecti
         Ok(())
     }
 
-    /// The fused path (see [`CostFunction::evaluate_gram`]): per point, the x and y rows of the
-    /// Jacobian each have twelve structural non-zeros (the x row does not depend on `fy, cy`,
-    /// the y row not on `fx, cx`), accumulated as compact rows
-    /// `[d(fx or fy), d(cx or cy), d/dk (4), d/dpose (6)]` (`lm_solver::gram::CompactGram`) and
-    /// scattered onto the block's columns once per view. Implemented for models with four
-    /// distortion coefficients (the others take the generic path).
+    /// The fused path (see [`CostFunction::evaluate_gram`] and [`accumulate_view_gram`]),
+    /// implemented for models with four distortion coefficients (the others take the generic path).
     fn evaluate_gram(
         &self,
         block: ResidualBlockId,
@@ -143,52 +139,75 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for Reprojecti
         if D::NUM_PARAMS != 4 {
             return None;
         }
-        let view = &self.views[block.0];
         let camera = self.camera(params[0]);
         let pose = DifferentiablePose::new::<P>(&Vector6::from_column_slice(params[1]));
-        let (mut gx, mut gy) = (CompactGram::<12>::new(), CompactGram::<12>::new());
-        let mut squared = 0.0;
-        for (i, (x, m)) in view.object.iter().zip(&view.image).enumerate() {
-            let (s, ds_dm) = pose.transform_with_jacobian(x);
-            let j = match camera.project_camera_point_with_jacobians(&s) {
-                Ok(j) => j,
-                Err(_) => return Some(Err(behind(block.0, i))),
-            };
-            let d_pose = j.d_camera_point * ds_dm;
-            let dd = ParamJacobian::as_slice(&j.d_distortion);
-            let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
-            squared += rx * rx + ry * ry;
-            let row = |r: usize, d: f64| {
-                [
-                    d,
-                    1.0,
-                    dd[r],
-                    dd[2 + r],
-                    dd[4 + r],
-                    dd[6 + r],
-                    d_pose[(r, 0)],
-                    d_pose[(r, 1)],
-                    d_pose[(r, 2)],
-                    d_pose[(r, 3)],
-                    d_pose[(r, 4)],
-                    d_pose[(r, 5)],
-                ]
-            };
-            gx.push(&row(0, j.d_intrinsics[(0, 0)]), rx);
-            gy.push(&row(1, j.d_intrinsics[(1, 1)]), ry);
-        }
-        let n = gram.cols();
-        let camera_cols = gram.block(0).map(|(c, _)| c);
-        let pose_cols = gram.block(1).map(|(c, _)| c);
-        let (g, gradient) = gram.parts_mut();
-        g.fill(0.0);
-        gradient.fill(0.0);
-        for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
-            let targets = compact_targets(row_y, camera_cols, pose_cols, self.aspect_ratio);
-            sums.scatter(&targets, g, gradient, n);
-        }
-        Some(Ok(squared))
+        let view = &self.views[block.0];
+        let squared =
+            accumulate_view_gram(&camera, &pose, &view.object, &view.image, self.aspect_ratio, gram);
+        Some(squared.map_err(|point| behind(block.0, point)))
     }
+}
+
+/// Fills `gram` with the normal-equation blocks of one view (board points `object`, measured
+/// pixels `image`) seen by one camera, the fused
+/// counterpart of [`ReprojectionCost::evaluate`] shared with the stereo cost's left views.
+///
+/// The residual block's parameter block 0 is the camera `[fx, fy, cx, cy, k (4)]` and block 1 the
+/// pose; per point, the x and y rows of the Jacobian each have twelve structural non-zeros (the x
+/// row does not depend on `fy, cy`, the y row not on `fx, cx`), accumulated as compact rows
+/// `[d(fx or fy), d(cx or cy), d/dk (4), d/dpose (6)]` and scattered onto the block's columns once
+/// per view (see [`compact_targets`]). Requires a model with four distortion coefficients.
+///
+/// Returns the sum of squared residuals in px², or the index of the first point behind the camera.
+/// Cost `O(N)` in the number of points, no allocation.
+pub fn accumulate_view_gram<D: LensDistortion>(
+    camera: &Camera<D>,
+    pose: &DifferentiablePose,
+    object: &[Point3<f64>],
+    image: &[Vector2<f64>],
+    aspect_ratio: Option<f64>,
+    gram: &mut GramBlocks<'_>,
+) -> Result<f64, usize> {
+    debug_assert_eq!(D::NUM_PARAMS, 4);
+    let (mut gx, mut gy) = (CompactGram::<12>::new(), CompactGram::<12>::new());
+    let mut squared = 0.0;
+    for (i, (x, m)) in object.iter().zip(image).enumerate() {
+        let (s, ds_dm) = pose.transform_with_jacobian(x);
+        let j = camera.project_camera_point_with_jacobians(&s).map_err(|_| i)?;
+        let d_pose = j.d_camera_point * ds_dm;
+        let dd = ParamJacobian::as_slice(&j.d_distortion);
+        let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
+        squared += rx * rx + ry * ry;
+        let row = |r: usize, d: f64| {
+            [
+                d,
+                1.0,
+                dd[r],
+                dd[2 + r],
+                dd[4 + r],
+                dd[6 + r],
+                d_pose[(r, 0)],
+                d_pose[(r, 1)],
+                d_pose[(r, 2)],
+                d_pose[(r, 3)],
+                d_pose[(r, 4)],
+                d_pose[(r, 5)],
+            ]
+        };
+        gx.push(&row(0, j.d_intrinsics[(0, 0)]), rx);
+        gy.push(&row(1, j.d_intrinsics[(1, 1)]), ry);
+    }
+    let n = gram.cols();
+    let camera_cols = gram.block(0).map(|(c, _)| c);
+    let pose_cols = gram.block(1).map(|(c, _)| c);
+    let (g, gradient) = gram.parts_mut();
+    g.fill(0.0);
+    gradient.fill(0.0);
+    for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
+        let targets = compact_targets(row_y, camera_cols, pose_cols, aspect_ratio);
+        sums.scatter(&targets, g, gradient, n);
+    }
+    Ok(squared)
 }
 
 /// Where the compact entries of an x row (`row_y = false`) or y row go in a residual block whose

@@ -7,7 +7,7 @@
 //! `rig * pose_j`; its Jacobians with respect to `pose_j` and the rig follow the chain rule of
 //! `camera_model::pose::composition`.
 
-use calib_single::cost::compact_targets;
+use calib_single::cost::{accumulate_view_gram, compact_targets};
 use camera_model::pose::composition::DifferentiableComposition;
 use camera_model::{
     Camera, CameraPointJacobians, DifferentiablePose, LensDistortion, ParamJacobian, Pose,
@@ -256,8 +256,8 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for StereoCost
     }
 
     /// The fused path (see [`CostFunction::evaluate_gram`]): each pixel row has few structural
-    /// non-zeros, accumulated as compact rows (`lm_solver::gram::CompactGram`). Left views use the
-    /// single-camera rows `[focal, principal point, k (4), pose (6)]`; right views 15-wide rows
+    /// non-zeros, accumulated as compact rows (`lm_solver::gram::CompactGram`). Left views are
+    /// single-camera views ([`accumulate_view_gram`]); right views use 15-wide rows
     /// from which the twelve pose and rig derivatives follow by a fixed map per pair (see the
     /// comment in the body), the focal entry going to the left camera's columns when both
     /// cameras share the focal length. Implemented for models with four distortion coefficients.
@@ -278,46 +278,15 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for StereoCost
         if block.0.is_multiple_of(2) {
             let camera = self.left_camera(params[0]);
             let pose = DifferentiablePose::new::<P>(&pose_params);
-            let (mut gx, mut gy) = (CompactGram::<12>::new(), CompactGram::<12>::new());
-            for (i, (x, m)) in pair.object.iter().zip(&pair.left).enumerate() {
-                let (s, ds_dm) = pose.transform_with_jacobian(x);
-                let j = match camera.project_camera_point_with_jacobians(&s) {
-                    Ok(j) => j,
-                    Err(_) => return Some(Err(behind(pair_index, "left", i))),
-                };
-                let d_pose = j.d_camera_point * ds_dm;
-                let dd = ParamJacobian::as_slice(&j.d_distortion);
-                let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
-                squared += rx * rx + ry * ry;
-                let row = |r: usize, d: f64| {
-                    [
-                        d,
-                        1.0,
-                        dd[r],
-                        dd[2 + r],
-                        dd[4 + r],
-                        dd[6 + r],
-                        d_pose[(r, 0)],
-                        d_pose[(r, 1)],
-                        d_pose[(r, 2)],
-                        d_pose[(r, 3)],
-                        d_pose[(r, 4)],
-                        d_pose[(r, 5)],
-                    ]
-                };
-                gx.push(&row(0, j.d_intrinsics[(0, 0)]), rx);
-                gy.push(&row(1, j.d_intrinsics[(1, 1)]), ry);
-            }
-            let (camera_cols, pose_cols) = (gram.block(0).map(|b| b.0), gram.block(1).map(|b| b.0));
-            let (g, gradient) = gram.parts_mut();
-            g.fill(0.0);
-            gradient.fill(0.0);
-            for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
-                let targets =
-                    compact_targets(row_y, camera_cols, pose_cols, self.coupling.left_aspect);
-                sums.scatter(&targets, g, gradient, n);
-            }
-            return Some(Ok(squared));
+            let squared = accumulate_view_gram(
+                &camera,
+                &pose,
+                &pair.object,
+                &pair.left,
+                self.coupling.left_aspect,
+                gram,
+            );
+            return Some(squared.map_err(|point| behind(pair_index, "left", point)));
         }
         let left_block: &[f64] = if self.coupling.same_focal_length {
             params[3]
