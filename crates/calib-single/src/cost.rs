@@ -142,8 +142,14 @@ impl<D: LensDistortion, P: RotationParameterization> CostFunction for Reprojecti
         let camera = self.camera(params[0]);
         let pose = DifferentiablePose::new::<P>(&Vector6::from_column_slice(params[1]));
         let view = &self.views[block.0];
-        let squared =
-            accumulate_view_gram(&camera, &pose, &view.object, &view.image, self.aspect_ratio, gram);
+        let squared = accumulate_view_gram(
+            &camera,
+            &pose,
+            &view.object,
+            &view.image,
+            self.aspect_ratio,
+            gram,
+        );
         Some(squared.map_err(|point| behind(block.0, point)))
     }
 }
@@ -173,7 +179,9 @@ pub fn accumulate_view_gram<D: LensDistortion>(
     let mut squared = 0.0;
     for (i, (x, m)) in object.iter().zip(image).enumerate() {
         let (s, ds_dm) = pose.transform_with_jacobian(x);
-        let j = camera.project_camera_point_with_jacobians(&s).map_err(|_| i)?;
+        let j = camera
+            .project_camera_point_with_jacobians(&s)
+            .map_err(|_| i)?;
         let d_pose = j.d_camera_point * ds_dm;
         let dd = ParamJacobian::as_slice(&j.d_distortion);
         let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);

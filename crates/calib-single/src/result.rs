@@ -139,12 +139,77 @@ pub fn solver_json(report: &SolverReport) -> Value {
     })
 }
 
+/// The coefficients of `camera`'s distortion model, in the model's order (`D::PARAM_NAMES`).
+pub fn distortion_params<D: LensDistortion>(camera: &Camera<D>) -> Vec<f64> {
+    let mut d = vec![0.0; D::NUM_PARAMS];
+    camera.distortion.write_params(&mut d);
+    d
+}
+
+/// A JSON object `{name: value}` for a distortion model's coefficients (or their deviations).
+pub fn named_distortion_json<D: LensDistortion>(values: &[f64]) -> Value {
+    D::PARAM_NAMES
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), json!(v)))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
+/// Appends the camera lines of a human summary (focal length, principal point, distortion, each
+/// with +- 3 sigma, and the parameters held fixed), every line prefixed with `indent`.
+/// `intrinsics_std` holds the deviations of `fx, fy, cx, cy` in pixels, `distortion_std` those of
+/// the distortion coefficients in the model's order.
+pub fn write_camera_summary<D: LensDistortion>(
+    out: &mut String,
+    indent: &str,
+    camera: &Camera<D>,
+    intrinsics_std: &[f64; 4],
+    distortion_std: &[f64],
+    fixed_parameters: &[String],
+) {
+    let k = &camera.intrinsics;
+    let s = intrinsics_std;
+    let _ = writeln!(
+        out,
+        "{indent}focal length     fx, fy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
+        k.fx,
+        k.fy,
+        3.0 * s[0],
+        3.0 * s[1]
+    );
+    let _ = writeln!(
+        out,
+        "{indent}principal point  cx, cy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
+        k.cx,
+        k.cy,
+        3.0 * s[2],
+        3.0 * s[3]
+    );
+    let values: Vec<String> = distortion_params(camera)
+        .iter()
+        .map(|v| format!("{v:>9.5}"))
+        .collect();
+    let sigmas: Vec<String> = distortion_std
+        .iter()
+        .map(|v| format!("{:.5}", 3.0 * v))
+        .collect();
+    let _ = writeln!(
+        out,
+        "{indent}distortion ({}) = {}   +- {}",
+        D::PARAM_NAMES.join(", "),
+        values.join(" "),
+        sigmas.join(" ")
+    );
+    if !fixed_parameters.is_empty() {
+        let _ = writeln!(out, "{indent}held fixed: {}", fixed_parameters.join(", "));
+    }
+}
+
 impl<D: LensDistortion> Calibration<D> {
     /// The distortion coefficients in the model's order.
     pub fn distortion_coefficients(&self) -> Vec<f64> {
-        let mut d = vec![0.0; D::NUM_PARAMS];
-        self.camera.distortion.write_params(&mut d);
-        d
+        distortion_params(&self.camera)
     }
 
     /// The views sorted by decreasing RMS (worst first).
@@ -158,15 +223,7 @@ impl<D: LensDistortion> Calibration<D> {
     pub fn to_json(&self) -> Value {
         let k = &self.camera.intrinsics;
         let dist = self.distortion_coefficients();
-        let names = D::PARAM_NAMES;
-        let named = |values: &[f64]| -> Value {
-            names
-                .iter()
-                .zip(values)
-                .map(|(n, v)| (n.to_string(), json!(v)))
-                .collect::<serde_json::Map<_, _>>()
-                .into()
-        };
+        let named = named_distortion_json::<D>;
         let s = &self.intrinsics_std;
         json!({
             "format": "calib-single-result/1",
@@ -224,9 +281,6 @@ impl<D: LensDistortion> Calibration<D> {
     /// RMS, the worst views and how the solver ended.
     pub fn summary(&self) -> String {
         let mut out = String::new();
-        let k = &self.camera.intrinsics;
-        let s = &self.intrinsics_std;
-        let dist = self.distortion_coefficients();
         let _ = writeln!(
             out,
             "Calibration results ({} views, {} points, image {}x{}), uncertainties +- 3 sigma:",
@@ -235,38 +289,14 @@ impl<D: LensDistortion> Calibration<D> {
             self.image_size.width,
             self.image_size.height
         );
-        let _ = writeln!(
-            out,
-            "  focal length     fx, fy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-            k.fx,
-            k.fy,
-            3.0 * s[0],
-            3.0 * s[1]
+        write_camera_summary(
+            &mut out,
+            "  ",
+            &self.camera,
+            &self.intrinsics_std,
+            &self.distortion_std,
+            &self.fixed_parameters,
         );
-        let _ = writeln!(
-            out,
-            "  principal point  cx, cy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-            k.cx,
-            k.cy,
-            3.0 * s[2],
-            3.0 * s[3]
-        );
-        let names = D::PARAM_NAMES.join(", ");
-        let values: Vec<String> = dist.iter().map(|v| format!("{v:>9.5}")).collect();
-        let sigmas: Vec<String> = self
-            .distortion_std
-            .iter()
-            .map(|v| format!("{:.5}", 3.0 * v))
-            .collect();
-        let _ = writeln!(
-            out,
-            "  distortion ({names}) = {}   +- {}",
-            values.join(" "),
-            sigmas.join(" ")
-        );
-        if !self.fixed_parameters.is_empty() {
-            let _ = writeln!(out, "  held fixed: {}", self.fixed_parameters.join(", "));
-        }
         let _ = writeln!(
             out,
             "  pixel error (std x, y) = {:.5} {:.5}",

@@ -1,6 +1,7 @@
 //! The stereo calibration result, its summary and its JSON form (`docs/formats.md`).
 
 use calib_single::ImageSize;
+use calib_single::result::{distortion_params, named_distortion_json, write_camera_summary};
 use camera_model::{
     AxisAngle, Camera, EulerXyz, LensDistortion, Pose, RotationKind, RotationParameterization,
 };
@@ -109,23 +110,10 @@ fn matrix_json(m: &Matrix3<f64>) -> Value {
 }
 
 impl<D: LensDistortion> CameraEstimate<D> {
-    fn distortion(&self) -> Vec<f64> {
-        let mut d = vec![0.0; D::NUM_PARAMS];
-        self.camera.distortion.write_params(&mut d);
-        d
-    }
-
     fn to_json(&self) -> Value {
         let k = &self.camera.intrinsics;
-        let named = |values: &[f64]| -> Value {
-            D::PARAM_NAMES
-                .iter()
-                .zip(values)
-                .map(|(n, v)| (n.to_string(), json!(v)))
-                .collect::<serde_json::Map<_, _>>()
-                .into()
-        };
-        let d = self.distortion();
+        let named = named_distortion_json::<D>;
+        let d = distortion_params(&self.camera);
         let s = &self.intrinsics_std;
         json!({
             "image_size": [self.image_size.width, self.image_size.height],
@@ -140,45 +128,15 @@ impl<D: LensDistortion> CameraEstimate<D> {
     }
 
     fn summary_lines(&self, name: &str, out: &mut String) {
-        let k = &self.camera.intrinsics;
-        let s = &self.intrinsics_std;
-        let d: Vec<String> = self
-            .distortion()
-            .iter()
-            .map(|v| format!("{v:>9.5}"))
-            .collect();
-        let ds: Vec<String> = self
-            .distortion_std
-            .iter()
-            .map(|v| format!("{:.5}", 3.0 * v))
-            .collect();
         let _ = writeln!(out, "  {name} camera (RMS {:.5} px):", self.rms);
-        let _ = writeln!(
+        write_camera_summary(
             out,
-            "    focal length     fx, fy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-            k.fx,
-            k.fy,
-            3.0 * s[0],
-            3.0 * s[1]
+            "    ",
+            &self.camera,
+            &self.intrinsics_std,
+            &self.distortion_std,
+            &self.fixed_parameters,
         );
-        let _ = writeln!(
-            out,
-            "    principal point  cx, cy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-            k.cx,
-            k.cy,
-            3.0 * s[2],
-            3.0 * s[3]
-        );
-        let _ = writeln!(
-            out,
-            "    distortion ({}) = {}   +- {}",
-            D::PARAM_NAMES.join(", "),
-            d.join(" "),
-            ds.join(" ")
-        );
-        if !self.fixed_parameters.is_empty() {
-            let _ = writeln!(out, "    held fixed: {}", self.fixed_parameters.join(", "));
-        }
     }
 }
 
