@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 bad input or failed calibration (one-line message on stderr); 2 bad
 //! command line (from the argument parser).
 
+mod run;
 mod single;
 mod stereo;
 mod synth;

@@ -1,10 +1,11 @@
 //! `calib single`: calibrate one camera.
 
-use crate::{Failure, parse_list, write_json};
+use crate::run::{OutputArgs, calibrate_and_report};
+use crate::{Failure, parse_list};
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
 use camera_model::{BrownConrady, Intrinsics, LensDistortion, RotationKind};
 use clap::{Args, ValueEnum};
-use lm_solver::{DampingPolicy, Termination};
+use lm_solver::DampingPolicy;
 
 /// Options shared by the single and stereo commands.
 #[derive(Args, Debug, Clone)]
@@ -125,60 +126,17 @@ impl CameraArgs {
 pub struct SingleArgs {
     /// Observation file (JSON).
     pub observations: String,
-    /// Write the full result as JSON to this file ("-" for stdout).
-    #[arg(short, long, value_name = "RESULT.json")]
-    pub output: Option<String>,
-    /// Do not print the summary.
-    #[arg(short, long)]
-    pub quiet: bool,
-    /// Run the calibration this many times in one process and report the median time in
-    /// `elapsed_seconds` (all times in `elapsed_seconds_all`): a warm timing, like a benchmark's.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub repeat: usize,
+    #[command(flatten)]
+    pub output: OutputArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
-}
-
-/// A warning line for a solve that stopped without meeting a convergence criterion.
-pub fn termination_warning(termination: &Termination) -> Option<String> {
-    (!termination.is_converged()).then(|| {
-        format!("warning: the optimization {termination}; the result may not be at the minimum")
-    })
 }
 
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     let observations = Observations::read(&args.observations)?;
     let options = args.camera.options()?;
-    let mut times = Vec::new();
-    let mut last = None;
-    for _ in 0..args.repeat.max(1) {
-        let result = calibrate(&observations, &options)
-            .map_err(|e| Failure(format!("{}: {e}", args.observations)))?;
-        times.push(result.elapsed);
-        last = Some(result);
-    }
-    let Some(mut result) = last else {
-        return Err(Failure("nothing was run".into()));
-    };
-    let all: Vec<f64> = times.iter().map(|t| t.as_secs_f64()).collect();
-    times.sort();
-    result.elapsed = times[times.len() / 2];
-    if let Termination::NumericalFailure(why) = &result.solver.termination {
-        return Err(Failure(format!(
-            "{}: calibration failed: {why}",
-            args.observations
-        )));
-    }
-    if !args.quiet {
-        print!("{}", result.summary());
-    }
-    if let Some(warning) = termination_warning(&result.solver.termination) {
-        eprintln!("calib: {warning}");
-    }
-    if let Some(path) = &args.output {
-        let mut json = result.to_json();
-        json["elapsed_seconds_all"] = serde_json::json!(all);
-        write_json(path, &json)?;
-    }
-    Ok(())
+    calibrate_and_report(&args.observations, &args.output, || {
+        calibrate(&observations, &options)
+            .map_err(|e| Failure(format!("{}: {e}", args.observations)))
+    })
 }

@@ -1,11 +1,11 @@
 //! `calib stereo`: calibrate a stereo rig.
 
-use crate::single::{CameraArgs, termination_warning};
-use crate::{Failure, parse_list, write_json};
+use crate::run::{OutputArgs, calibrate_and_report};
+use crate::single::CameraArgs;
+use crate::{Failure, parse_list};
 use calib_stereo::{RigInit, StereoObservations, StereoOptions, calibrate_stereo};
 use camera_model::{AxisAngle, Intrinsics, Pose, RotationParameterization};
 use clap::{Args, ValueEnum};
-use lm_solver::Termination;
 use nalgebra::Vector3;
 
 #[derive(ValueEnum, Debug, Clone, Copy)]
@@ -21,16 +21,8 @@ pub enum RigMethod {
 pub struct StereoArgs {
     /// Stereo observation file (JSON).
     pub pairs: String,
-    /// Write the full result as JSON to this file ("-" for stdout).
-    #[arg(short, long, value_name = "RESULT.json")]
-    pub output: Option<String>,
-    /// Do not print the summary.
-    #[arg(short, long)]
-    pub quiet: bool,
-    /// Run the calibration this many times in one process and report the median time in
-    /// `elapsed_seconds` (all times in `elapsed_seconds_all`): a warm timing, like a benchmark's.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub repeat: usize,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// Options for both cameras (a per-camera guess below overrides --guess).
     #[command(flatten)]
     pub camera: CameraArgs,
@@ -105,36 +97,8 @@ impl StereoArgs {
 pub fn run(args: &StereoArgs) -> Result<(), Failure> {
     let observations = StereoObservations::read(&args.pairs)?;
     let options = args.options()?;
-    let mut times = Vec::new();
-    let mut last = None;
-    for _ in 0..args.repeat.max(1) {
-        let result = calibrate_stereo(&observations, &options)
-            .map_err(|e| Failure(format!("{}: {e}", args.pairs)))?;
-        times.push(result.elapsed);
-        last = Some(result);
-    }
-    let Some(mut result) = last else {
-        return Err(Failure("nothing was run".into()));
-    };
-    let all: Vec<f64> = times.iter().map(|t| t.as_secs_f64()).collect();
-    times.sort();
-    result.elapsed = times[times.len() / 2];
-    if let Termination::NumericalFailure(why) = &result.solver.termination {
-        return Err(Failure(format!(
-            "{}: calibration failed: {why}",
-            args.pairs
-        )));
-    }
-    if !args.quiet {
-        print!("{}", result.summary());
-    }
-    if let Some(warning) = termination_warning(&result.solver.termination) {
-        eprintln!("calib: {warning}");
-    }
-    if let Some(path) = &args.output {
-        let mut json = result.to_json();
-        json["elapsed_seconds_all"] = serde_json::json!(all);
-        write_json(path, &json)?;
-    }
-    Ok(())
+    calibrate_and_report(&args.pairs, &args.output, || {
+        calibrate_stereo(&observations, &options)
+            .map_err(|e| Failure(format!("{}: {e}", args.pairs)))
+    })
 }
