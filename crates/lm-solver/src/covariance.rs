@@ -19,7 +19,7 @@ use crate::cost::CostFunction;
 use crate::kernels::backward_substitute_transpose;
 use crate::levenberg_marquardt::{Solver, describe};
 use crate::problem::{BlockRole, ParameterBlockId};
-use crate::schur::{eliminate_chunk, for_each_chunk};
+use crate::schur::{assemble_dense_schur, eliminate_chunk, for_each_chunk};
 use nalgebra::DMatrix;
 
 /// Why a covariance could not be computed.
@@ -218,25 +218,7 @@ impl Solver {
             }
         }
         let mut s = DMatrix::<f64>::zeros(n, n);
-        for &(ra, rb, off) in &problem.u_pattern.pairs {
-            let (da, db) = (
-                problem.dims[problem.reduced_blocks[ra]],
-                problem.dims[problem.reduced_blocks[rb]],
-            );
-            let (ga, gb) = (problem.reduced_offsets[ra], problem.reduced_offsets[rb]);
-            for j in 0..db {
-                for i in 0..da {
-                    let v = self.ne.u[off + i + j * da];
-                    s[(ga + i, gb + j)] = v;
-                    s[(gb + j, ga + i)] = v;
-                }
-            }
-        }
-        for chunk in &self.ne.chunks {
-            for (a, b) in s.as_mut_slice().iter_mut().zip(&chunk.s_partial) {
-                *a += b;
-            }
-        }
+        assemble_dense_schur(problem, &self.ne, s.as_mut_slice());
         // Free reduced components.
         let mut free = Vec::new();
         for (ra, &block) in problem.reduced_blocks.iter().enumerate() {

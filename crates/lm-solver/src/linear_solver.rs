@@ -18,7 +18,7 @@ use crate::kernels::{cholesky_in_place, cholesky_solve};
 use crate::normal_equations::NormalEquations;
 use crate::problem::Problem;
 use crate::schur::{
-    back_substitute_chunk, eliminate_chunk, for_each_chunk, prepare_chunks,
+    assemble_dense_schur, back_substitute_chunk, eliminate_chunk, for_each_chunk, prepare_chunks,
     scatter_eliminated_steps,
 };
 use crate::sparse::{BlockSparseCholesky, SymbolicFailure};
@@ -258,21 +258,7 @@ impl LinearSolver {
                 if ne.chunks.iter().any(|c| c.solve_failed) {
                     return Err(SolveFailed);
                 }
-                s.fill(0.0);
-                for &(ra, rb, off) in &problem.u_pattern.pairs {
-                    let (da, db) = (
-                        problem.dims[problem.reduced_blocks[ra]],
-                        problem.dims[problem.reduced_blocks[rb]],
-                    );
-                    let (ga, gb) = (problem.reduced_offsets[ra], problem.reduced_offsets[rb]);
-                    for j in 0..db {
-                        for i in 0..da {
-                            let v = ne.u[off + i + j * da];
-                            s[(ga + i) + (gb + j) * n] = v;
-                            s[(gb + j) + (ga + i) * n] = v;
-                        }
-                    }
-                }
+                assemble_dense_schur(problem, ne, s);
                 for (ra, &block) in problem.reduced_blocks.iter().enumerate() {
                     let g0 = problem.reduced_offsets[ra];
                     let o = problem.offsets[block];
@@ -282,9 +268,6 @@ impl LinearSolver {
                     }
                 }
                 for chunk in &ne.chunks {
-                    for (a, b) in s.iter_mut().zip(&chunk.s_partial) {
-                        *a += b;
-                    }
                     for (a, b) in rhs.iter_mut().zip(&chunk.rhs_partial) {
                         *a += b;
                     }

@@ -177,3 +177,32 @@ pub(crate) fn scatter_eliminated_steps(problem: &Problem, chunks: &[Chunk], step
         }
     }
 }
+
+/// Writes the dense reduced matrix `S = U - sum_e Y_e Y_e^T` (both triangles, column-major,
+/// `n x n` with `n = problem.reduced_dim`) into `s`, from `U` and the chunks' partial Schur
+/// complements (filled by [`eliminate_chunk`] with a dense reduced block). Any damping of the
+/// reduced parameters is the caller's to add. Cost `O(n^2)` per chunk.
+pub(crate) fn assemble_dense_schur(problem: &Problem, ne: &NormalEquations, s: &mut [f64]) {
+    let n = problem.reduced_dim;
+    debug_assert_eq!(s.len(), n * n);
+    s.fill(0.0);
+    for &(ra, rb, off) in &problem.u_pattern.pairs {
+        let (da, db) = (
+            problem.dims[problem.reduced_blocks[ra]],
+            problem.dims[problem.reduced_blocks[rb]],
+        );
+        let (ga, gb) = (problem.reduced_offsets[ra], problem.reduced_offsets[rb]);
+        for j in 0..db {
+            for i in 0..da {
+                let v = ne.u[off + i + j * da];
+                s[(ga + i) + (gb + j) * n] = v;
+                s[(gb + j) + (ga + i) * n] = v;
+            }
+        }
+    }
+    for chunk in &ne.chunks {
+        for (a, b) in s.iter_mut().zip(&chunk.s_partial) {
+            *a += b;
+        }
+    }
+}
