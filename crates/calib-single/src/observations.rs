@@ -96,6 +96,16 @@ struct ObservationFile {
     views: Vec<ViewFile>,
 }
 
+/// Reads a whole text file for one of the observation formats: its text and the displayable
+/// path that error messages name.
+pub fn read_text(path: &std::path::Path) -> Result<(String, String), ReadError> {
+    let name = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((text, name)),
+        Err(source) => Err(ReadError::Io { path: name, source }),
+    }
+}
+
 impl Observations {
     /// Parses the JSON observation format.
     pub fn from_json(text: &str) -> Result<Self, ReadError> {
@@ -104,12 +114,8 @@ impl Observations {
 
     /// Reads a JSON observation file.
     pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ReadError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::parse(&text, &path.display().to_string())
+        let (text, name) = read_text(path.as_ref())?;
+        Self::parse(&text, &name)
     }
 
     fn parse(text: &str, path: &str) -> Result<Self, ReadError> {

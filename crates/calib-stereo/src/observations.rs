@@ -13,6 +13,7 @@
 //! give `left_object_points` and `right_object_points`, which must then be equal.
 
 use crate::error::{Side, StereoError};
+use calib_single::observations::read_text;
 use calib_single::{ImageSize, Observations, ReadError, View};
 use nalgebra::{Point2, Point3};
 use serde::Deserialize;
@@ -78,12 +79,8 @@ impl StereoObservations {
 
     /// Reads a JSON stereo observation file.
     pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ReadError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::parse(&text, &path.display().to_string())
+        let (text, name) = read_text(path.as_ref())?;
+        Self::parse(&text, &name)
     }
 
     fn parse(text: &str, path: &str) -> Result<Self, ReadError> {

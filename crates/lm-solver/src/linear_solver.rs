@@ -277,12 +277,7 @@ impl LinearSolver {
                 if !rhs.iter().all(|v| v.is_finite()) {
                     return Err(SolveFailed);
                 }
-                let dr: &[f64] = rhs;
-                for_each_chunk(&mut ne.chunks, pool, |c| {
-                    back_substitute_chunk(problem, c, dr)
-                });
-                scatter_reduced(problem, dr, step);
-                scatter_eliminated_steps(problem, &ne.chunks, step);
+                finish_schur_step(problem, ne, rhs, step, pool);
             }
             LinearSolver::SparseSchur {
                 matrix,
@@ -346,12 +341,7 @@ impl LinearSolver {
                     }
                 }
                 matrix.factorize_and_solve(rhs).map_err(|_| SolveFailed)?;
-                let dr: &[f64] = rhs;
-                for_each_chunk(&mut ne.chunks, pool, |c| {
-                    back_substitute_chunk(problem, c, dr)
-                });
-                scatter_reduced(problem, dr, step);
-                scatter_eliminated_steps(problem, &ne.chunks, step);
+                finish_schur_step(problem, ne, rhs, step, pool);
             }
             LinearSolver::SparseCholesky {
                 matrix,
@@ -433,6 +423,22 @@ impl LinearSolver {
         }
         Ok(())
     }
+}
+
+/// Given the reduced step `dr`, recovers the eliminated steps by back substitution and writes
+/// both into the flat `step`.
+fn finish_schur_step(
+    problem: &Problem,
+    ne: &mut NormalEquations,
+    dr: &[f64],
+    step: &mut [f64],
+    pool: Option<&rayon::ThreadPool>,
+) {
+    for_each_chunk(&mut ne.chunks, pool, |c| {
+        back_substitute_chunk(problem, c, dr)
+    });
+    scatter_reduced(problem, dr, step);
+    scatter_eliminated_steps(problem, &ne.chunks, step);
 }
 
 fn scatter_reduced(problem: &Problem, dr: &[f64], step: &mut [f64]) {
