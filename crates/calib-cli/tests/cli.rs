@@ -10,6 +10,17 @@ fn data(path: &str) -> String {
     format!("{}/../../data/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Runs the command and checks that it succeeded, showing its stderr otherwise.
+fn run_ok(command: &mut Command) -> std::process::Output {
+    let run = command.output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run
+}
+
 fn temp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("calib-cli-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -19,15 +30,10 @@ fn temp(name: &str) -> std::path::PathBuf {
 #[test]
 fn single_on_real_data_prints_a_summary_and_writes_json() {
     let out = temp("left.json");
-    let run = calib()
-        .args(["single", &data("sourishg1/left.json"), "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let run = run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-o"])
+            .arg(&out),
     );
     let summary = String::from_utf8(run.stdout).unwrap();
     assert!(
@@ -86,17 +92,12 @@ fn bad_input_exits_non_zero_with_one_line() {
 #[test]
 fn synth_then_calibrate_recovers_the_truth() {
     let file = temp("synth.json");
-    let run = calib()
-        .args([
-            "synth", "single", "--views", "15", "--noise", "0.1", "--seed", "4", "-o",
-        ])
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    run_ok(
+        calib()
+            .args([
+                "synth", "single", "--views", "15", "--noise", "0.1", "--seed", "4", "-o",
+            ])
+            .arg(&file),
     );
     let result = calib()
         .arg("single")
@@ -153,15 +154,10 @@ fn options_reach_the_library() {
 #[test]
 fn stereo_on_real_data_and_synthetic_rigs() {
     let out = temp("stereo.json");
-    let run = calib()
-        .args(["stereo", &data("sourishg1/stereo.json"), "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let run = run_ok(
+        calib()
+            .args(["stereo", &data("sourishg1/stereo.json"), "-o"])
+            .arg(&out),
     );
     let summary = String::from_utf8(run.stdout).unwrap();
     assert!(
@@ -188,43 +184,28 @@ fn stereo_on_real_data_and_synthetic_rigs() {
     assert_eq!(json["pairs"].as_array().unwrap().len(), 29);
 
     let file = temp("synth-stereo.json");
-    let run = calib()
-        .args([
-            "synth",
-            "stereo",
-            "--views",
-            "8",
-            "--noise",
-            "0",
-            "--rig",
-            "0,0.05,0,-120,0,0",
-            "-o",
-        ])
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    run_ok(
+        calib()
+            .args([
+                "synth",
+                "stereo",
+                "--views",
+                "8",
+                "--noise",
+                "0",
+                "--rig",
+                "0,0.05,0,-120,0,0",
+                "-o",
+            ])
+            .arg(&file),
     );
-    let run = calib()
-        .arg("stereo")
-        .arg(&file)
-        .args([
-            "--quiet",
-            "--same-focal-length",
-            "--fix-right-intrinsics",
-            "-o",
-            "-",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let run = run_ok(calib().arg("stereo").arg(&file).args([
+        "--quiet",
+        "--same-focal-length",
+        "--fix-right-intrinsics",
+        "-o",
+        "-",
+    ]));
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     assert_eq!(
         json["right"]["fixed_parameters"].as_array().unwrap().len(),
