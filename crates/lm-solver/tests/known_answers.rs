@@ -354,11 +354,7 @@ fn bearing_adjustment_recovers_noise_free_truth_with_every_solver() {
             "{kind:?}: {:?}",
             report.termination
         );
-        let err = x
-            .iter()
-            .zip(&truth)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let err = max_abs_difference(&x, &truth);
         assert!(err < 1e-8, "{kind:?}: max error {err}");
     }
 }
@@ -485,11 +481,7 @@ fn pose_graph_recovers_truth_and_solves_noisy_graphs() {
             "{:?}",
             report.termination
         );
-        let err = x
-            .iter()
-            .zip(&truth)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let err = max_abs_difference(&x, &truth);
         assert!(err < 1e-8, "{kind:?}: {err}");
     }
     let noisy = PoseGraph::generate(50, 15, 0.01, 3);
@@ -674,4 +666,12 @@ fn eager_and_lazy_linearization_agree() {
     );
     // The covariance reuses the solver's last linearization; it equals a fresh one.
     assert_eq!(std_eager, std_lazy);
+}
+
+/// The largest component-wise distance between two parameter vectors.
+fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
 }
