@@ -47,9 +47,10 @@ pub fn synthetic(
 
 /// Calibration's default solver settings on one thread.
 pub fn single_thread_solver_options() -> SolverOptions {
-    SolverOptions {
-        num_threads: 1,
-        ..default_solver_options()
+    {
+        let mut o = default_solver_options();
+        o.num_threads = 1;
+        o
     }
 }
 

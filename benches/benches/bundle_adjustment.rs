@@ -35,11 +35,12 @@ const NOISE_RAD: f64 = 1e-3;
 const PERTURBATION: f64 = 0.1;
 
 fn options(kind: LinearSolverKind, max_iterations: usize) -> SolverOptions {
-    SolverOptions {
-        num_threads: 1,
-        linear_solver: kind,
-        max_iterations,
-        ..SolverOptions::default()
+    {
+        let mut o = SolverOptions::default();
+        o.num_threads = 1;
+        o.linear_solver = kind;
+        o.max_iterations = max_iterations;
+        o
     }
 }
 

@@ -14,7 +14,7 @@ use calib_benches::{BOARD_9X6, BOARD_20X20, CalibrationProblem, single_thread_so
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
-use lm_solver::SolverOptions;
+
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -68,9 +68,10 @@ fn solver_core(c: &mut Criterion) {
                     .measurement_time(Duration::from_secs(2));
             }
 
-            let mut linearizer = p.solver(SolverOptions {
-                max_iterations: 0,
-                ..single_thread_solver_options()
+            let mut linearizer = p.solver({
+                let mut o = single_thread_solver_options();
+                o.max_iterations = 0;
+                o
             });
             group.bench_function(BenchmarkId::new("linearize", &label), |b| {
                 let mut x = p.start.clone();

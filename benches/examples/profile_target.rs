@@ -13,7 +13,7 @@ use calib_benches::{
     BOARD_9X6, BOARD_20X20, CalibrationProblem, single_thread_options,
     single_thread_solver_options, synthetic,
 };
-use lm_solver::SolverOptions;
+
 use std::time::Instant;
 
 fn main() {
@@ -46,10 +46,9 @@ fn main() {
         "linearize" | "solve" => {
             let p = CalibrationProblem::new(&set.observations);
             let max_iterations = if mode == "linearize" { 0 } else { 100 };
-            let mut solver = p.solver(SolverOptions {
-                max_iterations,
-                ..single_thread_solver_options()
-            });
+            let mut options = single_thread_solver_options();
+            options.max_iterations = max_iterations;
+            let mut solver = p.solver(options);
             let cost = p.cost();
             let mut x = p.start.clone();
             for _ in 0..reps {

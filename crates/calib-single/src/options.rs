@@ -71,8 +71,9 @@ impl Default for CalibrationOptions {
 /// The solver settings calibration uses by default: the library defaults, which converge to the
 /// rounding level of the cost (relative change 1e-12), with at most 100 step attempts.
 pub fn default_solver_options() -> SolverOptions {
-    SolverOptions {
-        max_iterations: 100,
-        ..SolverOptions::default()
+    {
+        let mut o = SolverOptions::default();
+        o.max_iterations = 100;
+        o
     }
 }

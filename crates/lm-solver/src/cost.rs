@@ -1,5 +1,6 @@
 //! The evaluation callback: how users supply residuals and analytic Jacobians.
 
+use crate::loss::Loss;
 use crate::problem::ResidualBlockId;
 
 /// A failure reported by a cost function, for example a point that moved behind a camera.
@@ -38,7 +39,19 @@ pub struct JacobianBlocks<'a> {
     pub(crate) layout: &'a [(usize, usize)],
 }
 
-impl JacobianBlocks<'_> {
+impl<'a> JacobianBlocks<'a> {
+    /// Jacobian blocks over `buffer` (column-major, `rows` rows), parameter block `k` occupying
+    /// columns `layout[k].0 .. layout[k].0 + layout[k].1` (`usize::MAX` as first column: a
+    /// constant block with no columns). The solver builds these itself; this is for testing a
+    /// cost function directly.
+    pub fn new(buffer: &'a mut [f64], rows: usize, layout: &'a [(usize, usize)]) -> Self {
+        Self {
+            buffer,
+            rows,
+            layout,
+        }
+    }
+
     /// Number of residuals (rows of every block).
     pub fn rows(&self) -> usize {
         self.rows
@@ -75,6 +88,8 @@ pub struct GramBlocks<'a> {
     pub(crate) gradient: &'a mut [f64],
     pub(crate) cols: usize,
     pub(crate) layout: &'a [(usize, usize)],
+    pub(crate) loss: Loss,
+    pub(crate) group: usize,
 }
 
 impl GramBlocks<'_> {
@@ -94,6 +109,18 @@ impl GramBlocks<'_> {
     #[inline]
     pub fn parts_mut(&mut self) -> (&mut [f64], &mut [f64]) {
         (self.gram, self.gradient)
+    }
+
+    /// The residual block's loss, applied to each group of [`GramBlocks::loss_group`] residuals.
+    #[inline]
+    pub fn loss(&self) -> Loss {
+        self.loss
+    }
+
+    /// Rows per loss group (the block's dimension when the loss applies to the whole block).
+    #[inline]
+    pub fn loss_group(&self) -> usize {
+        self.group
     }
 }
 
@@ -120,15 +147,17 @@ pub trait CostFunction: Sync {
     ) -> Result<(), EvaluationError>;
 
     /// Optional fast path: evaluate residual block `block` and write its Gram matrix `J^T J` and
-    /// gradient `J^T r` directly (see [`GramBlocks`]), returning the squared residual norm
-    /// `|r|^2`.
+    /// gradient `J^T r` directly (see [`GramBlocks`]), returning `sum_g rho(|r_g|^2)` over the
+    /// block's loss groups (the squared residual norm `|r|^2` for the trivial loss).
     ///
     /// A cost function that knows the structure of its Jacobian (zeros, repeated factors) can
     /// accumulate these products point by point, fused with the evaluation, without writing the
     /// Jacobian out. The default returns `None`, and the solver forms the products from
-    /// [`CostFunction::evaluate`]'s Jacobian. The solver uses this path only for residual blocks
-    /// with the trivial loss; it zeroes the rows and columns of fixed components itself. Results
-    /// must agree with `evaluate` (`lm_solver::numdiff::check_gram` tests that).
+    /// [`CostFunction::evaluate`]'s Jacobian. With a non-trivial loss ([`GramBlocks::loss`]) the
+    /// products must be those of the corrected residuals and Jacobian (`crate::loss`), group by
+    /// group; a cost function that does not handle a loss returns `None` for it. The solver
+    /// zeroes the rows and columns of fixed components itself. Results must agree with
+    /// `evaluate` (`lm_solver::numdiff::check_gram` tests that).
     fn evaluate_gram(
         &self,
         block: ResidualBlockId,

@@ -13,6 +13,7 @@ use crate::report::{IterationRecord, SolverReport, Termination};
 use std::time::{Duration, Instant};
 
 /// How the damping `lambda` and the damping matrix `D` evolve.
+#[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DampingPolicy {
     /// The calibration text's policy: `D = I` (additive `lambda I`), `lambda` starts at `initial`
@@ -80,6 +81,7 @@ impl Default for DampingPolicy {
 }
 
 /// Settings of a solve.
+#[non_exhaustive]
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
     /// Maximum number of step attempts (accepted or rejected). Default 200.
@@ -137,6 +139,7 @@ impl Default for SolverOptions {
 
 /// Errors of a solve: problems with the inputs or the setup, never with convergence (that is
 /// reported in [`SolverReport::termination`]).
+#[non_exhaustive]
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SolverError {
     /// The parameter vector has the wrong length.
@@ -180,6 +183,30 @@ pub(crate) fn describe(failure: &EvaluationFailure) -> (usize, String) {
     }
 }
 
+/// What an [`Observer`] asks of the solve after a step attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ObserverAction {
+    /// Go on.
+    #[default]
+    Continue,
+    /// Stop now ([`Termination::StoppedByObserver`]); `x` keeps the best parameters so far.
+    Stop,
+}
+
+/// Watches a solve: called after every step attempt with its record (see
+/// [`Solver::solve_with_observer`]). Implemented for closures `FnMut(&IterationRecord) ->
+/// ObserverAction`.
+pub trait Observer {
+    /// Called after each step attempt; the return value can stop the solve.
+    fn observe(&mut self, record: &IterationRecord) -> ObserverAction;
+}
+
+impl<F: FnMut(&IterationRecord) -> ObserverAction> Observer for F {
+    fn observe(&mut self, record: &IterationRecord) -> ObserverAction {
+        self(record)
+    }
+}
+
 /// A Levenberg-Marquardt solver prepared for one problem structure.
 ///
 /// Construction does all the structural work once (chunking, storage for the normal equations,
@@ -215,11 +242,12 @@ impl std::fmt::Debug for Solver {
 impl Solver {
     /// Prepares a solver for `problem`.
     pub fn new(problem: Problem, options: SolverOptions) -> Result<Self, SolverError> {
-        let mut ne = NormalEquations::new(&problem, options.chunk_work);
+        let dense = options.linear_solver.resolve(&problem) == LinearSolverKind::DenseSchur;
+        let mut ne = NormalEquations::new(&problem, options.chunk_work, dense);
         let linear = LinearSolver::new(options.linear_solver, &problem, &mut ne)
             .map_err(|e| SolverError::LinearSolverSetup(e.0))?;
         let trial_ne = options.eager_linearization.then(|| {
-            let mut trial = NormalEquations::new(&problem, options.chunk_work);
+            let mut trial = NormalEquations::new(&problem, options.chunk_work, dense);
             linear.prepare(&problem, &mut trial);
             trial
         });
@@ -237,7 +265,7 @@ impl Solver {
         } else {
             None
         };
-        let n = problem.num_parameters;
+        let (n, n_ambient) = (problem.num_tangent, problem.num_parameters);
         Ok(Self {
             problem,
             options,
@@ -247,7 +275,7 @@ impl Solver {
             linear,
             pool,
             step: vec![0.0; n],
-            trial: vec![0.0; n],
+            trial: vec![0.0; n_ambient],
             damping: vec![0.0; n],
             diagonal: vec![0.0; n],
         })
@@ -279,11 +307,13 @@ impl Solver {
         cost_fn: &C,
         x: &mut [f64],
     ) -> Result<SolverReport, SolverError> {
-        self.solve_with_observer(cost_fn, x, |_| {})
+        self.solve_with_observer(cost_fn, x, |_: &IterationRecord| ObserverAction::Continue)
     }
 
-    /// Like [`Solver::solve`], calling `observer` after every step attempt (for logging).
-    pub fn solve_with_observer<C: CostFunction, O: FnMut(&IterationRecord)>(
+    /// Like [`Solver::solve`], calling `observer` after every step attempt (for logging, progress
+    /// or a time budget). When the observer returns [`ObserverAction::Stop`] the solve ends with
+    /// [`Termination::StoppedByObserver`] and `x` holds the best parameters so far.
+    pub fn solve_with_observer<C: CostFunction, O: Observer>(
         &mut self,
         cost_fn: &C,
         x: &mut [f64],
@@ -386,7 +416,7 @@ impl Solver {
                 if step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance)
                 {
                     iterations.push(record.clone());
-                    observer(&record);
+                    observer.observe(&record);
                     break Termination::ParameterTolerance;
                 }
                 // Model decrease: -g.step - 0.5 step^T H step = 0.5 (-g.step + step^T D step),
@@ -408,12 +438,10 @@ impl Solver {
                 {
                     record.gain_ratio = f64::NAN;
                     iterations.push(record.clone());
-                    observer(&record);
+                    observer.observe(&record);
                     break Termination::FunctionTolerance;
                 }
-                for ((t, a), b) in self.trial.iter_mut().zip(x.iter()).zip(&self.step) {
-                    *t = a + b;
-                }
+                problem.plus(x, &self.step, &mut self.trial);
                 let te = Instant::now();
                 let trial_cost = match self.trial_ne.as_mut() {
                     Some(trial_ne) => {
@@ -452,7 +480,7 @@ impl Solver {
                                 record.evaluate_time = te.elapsed();
                                 evaluate_time += record.evaluate_time;
                                 iterations.push(record.clone());
-                                observer(&record);
+                                observer.observe(&record);
                                 break Termination::NumericalFailure(format!(
                                     "linearization failed at an accepted point (residual block {residual}: {message})"
                                 ));
@@ -495,9 +523,12 @@ impl Solver {
             record.accepted = accepted;
             record.cost = cost;
             iterations.push(record.clone());
-            observer(&record);
+            let action = observer.observe(&record);
             if let Some(termination) = converged {
                 break termination;
+            }
+            if action == ObserverAction::Stop {
+                break Termination::StoppedByObserver;
             }
             if !accepted && lambda > options.max_lambda {
                 break Termination::DampingExhausted;

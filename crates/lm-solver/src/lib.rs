@@ -65,21 +65,30 @@ mod kernels;
 pub mod levenberg_marquardt;
 pub mod linear_solver;
 pub mod loss;
+pub mod manifold;
 mod normal_equations;
 pub mod numdiff;
 pub mod problem;
 pub mod report;
+pub mod rng;
 mod schur;
 mod sparse;
+#[cfg(any(test, feature = "test-problems"))]
 pub mod test_problems;
 
 pub use cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
 pub use covariance::{Covariance, CovarianceError, RANK_TOLERANCE};
-pub use levenberg_marquardt::{DampingPolicy, Solver, SolverError, SolverOptions};
+pub use levenberg_marquardt::{
+    DampingPolicy, Observer, ObserverAction, Solver, SolverError, SolverOptions,
+};
 pub use linear_solver::LinearSolverKind;
 pub use loss::{CustomLoss, Loss};
+pub use manifold::Manifold;
+/// The linear-algebra crate of the public API (block values, covariance matrices).
+pub use nalgebra;
 pub use problem::{
     MAX_BLOCKS_PER_RESIDUAL, ParameterBlockId, Problem, ProblemBuilder, ProblemError,
     ResidualBlockId,
 };
 pub use report::{IterationRecord, SolverReport, Termination};
+pub use rng::Rng;

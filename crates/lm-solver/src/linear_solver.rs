@@ -24,6 +24,7 @@ use crate::schur::{
 use crate::sparse::{BlockSparseCholesky, SymbolicFailure};
 
 /// Which linear solver computes the Levenberg-Marquardt step.
+#[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LinearSolverKind {
     /// Dense Schur when the reduced system is small (at most 512 parameters), otherwise sparse
@@ -64,13 +65,8 @@ pub(crate) enum LinearSolver {
         rhs: Vec<f64>,
     },
     SparseSchur {
-        matrix: BlockSparseCholesky,
+        system: SparseSchurSystem,
         rhs: Vec<f64>,
-        /// Pair index for each entry of the U pattern.
-        u_pairs: Vec<usize>,
-        /// Per eliminated block: (coupled i, coupled j, pair) for coupled pairs with i <= j.
-        elim_pairs: Vec<Vec<(usize, usize, usize)>>,
-        scratch: Vec<f64>,
     },
     SparseCholesky {
         matrix: BlockSparseCholesky,
@@ -109,50 +105,9 @@ impl LinearSolver {
             }
             LinearSolverKind::SparseSchur => {
                 prepare_chunks(ne, None);
-                let mut pairs: Vec<(usize, usize)> = problem
-                    .u_pattern
-                    .pairs
-                    .iter()
-                    .map(|&(a, b, _)| (a, b))
-                    .collect();
-                for e in &problem.eliminated {
-                    for &(a, _) in &e.coupled {
-                        for &(b, _) in &e.coupled {
-                            if a < b {
-                                pairs.push((a, b));
-                            }
-                        }
-                    }
-                }
-                let matrix = BlockSparseCholesky::new(&reduced_dims, pairs)?;
-                let u_pairs = problem
-                    .u_pattern
-                    .pairs
-                    .iter()
-                    .map(|&(a, b, _)| matrix.pair(a, b).unwrap_or(0))
-                    .collect();
-                let elim_pairs = problem
-                    .eliminated
-                    .iter()
-                    .map(|e| {
-                        let mut list = Vec::new();
-                        for (i, &(a, _)) in e.coupled.iter().enumerate() {
-                            for (j, &(b, _)) in e.coupled.iter().enumerate() {
-                                if a <= b {
-                                    list.push((i, j, matrix.pair(a, b).unwrap_or(0)));
-                                }
-                            }
-                        }
-                        list
-                    })
-                    .collect();
-                let max_dim = reduced_dims.iter().copied().max().unwrap_or(0);
                 LinearSolver::SparseSchur {
-                    matrix,
+                    system: SparseSchurSystem::new(problem)?,
                     rhs: vec![0.0; n_r],
-                    u_pairs,
-                    elim_pairs,
-                    scratch: vec![0.0; max_dim * max_dim],
                 }
             }
             LinearSolverKind::SparseCholesky => {
@@ -279,68 +234,18 @@ impl LinearSolver {
                 }
                 finish_schur_step(problem, ne, rhs, step, pool);
             }
-            LinearSolver::SparseSchur {
-                matrix,
-                rhs,
-                u_pairs,
-                elim_pairs,
-                scratch,
-            } => {
+            LinearSolver::SparseSchur { system, rhs } => {
                 for_each_chunk(&mut ne.chunks, pool, |c| {
                     eliminate_chunk(problem, c, damping, false)
                 });
                 if ne.chunks.iter().any(|c| c.solve_failed) {
                     return Err(SolveFailed);
                 }
-                matrix.clear();
-                add_u_blocks(problem, ne, matrix, u_pairs);
-                for (ra, &block) in problem.reduced_blocks.iter().enumerate() {
-                    let o = problem.offsets[block];
-                    let d = problem.dims[block];
-                    matrix.add_diagonal(ra, &damping[o..o + d]);
-                    let g0 = problem.reduced_offsets[ra];
-                    for i in 0..d {
-                        rhs[g0 + i] = -ne.g[o + i];
-                    }
-                }
-                for chunk in &ne.chunks {
-                    for (local, e) in chunk.elim.clone().enumerate() {
-                        let layout = &problem.eliminated[e];
-                        let (d, rows) = (layout.dim, layout.w_rows);
-                        let wo = chunk.w_off[local];
-                        let go = chunk.g_off[local];
-                        let y = &chunk.y[wo..wo + rows * d];
-                        let z = &chunk.z[go..go + d];
-                        for &(ci, cj, p) in &elim_pairs[e] {
-                            let (ra, oi) = layout.coupled[ci];
-                            let (rb, oj) = layout.coupled[cj];
-                            let di = problem.dims[problem.reduced_blocks[ra]];
-                            let dj = problem.dims[problem.reduced_blocks[rb]];
-                            for j in 0..dj {
-                                for i in 0..di {
-                                    let mut acc = 0.0;
-                                    for k in 0..d {
-                                        acc += y[oi + i + k * rows] * y[oj + j + k * rows];
-                                    }
-                                    scratch[i + j * di] = acc;
-                                }
-                            }
-                            matrix.add_block(p, scratch, di, -1.0);
-                        }
-                        for &(ra, oi) in &layout.coupled {
-                            let di = problem.dims[problem.reduced_blocks[ra]];
-                            let g0 = problem.reduced_offsets[ra];
-                            for i in 0..di {
-                                let mut acc = 0.0;
-                                for k in 0..d {
-                                    acc += y[oi + i + k * rows] * z[k];
-                                }
-                                rhs[g0 + i] += acc;
-                            }
-                        }
-                    }
-                }
-                matrix.factorize_and_solve(rhs).map_err(|_| SolveFailed)?;
+                system.assemble(problem, ne, damping, Some(rhs));
+                system
+                    .matrix
+                    .factorize_and_solve(rhs)
+                    .map_err(|_| SolveFailed)?;
                 finish_schur_step(problem, ne, rhs, step, pool);
             }
             LinearSolver::SparseCholesky {
@@ -422,6 +327,142 @@ impl LinearSolver {
             }
         }
         Ok(())
+    }
+}
+
+/// The reduced system `S = U - sum_e Y_e Y_e^T` as a block-sparse matrix (pattern: the `U`
+/// pairs and every pair of reduced blocks coupled to a common eliminated block), with its
+/// symbolic factorization. Used by the sparse Schur solver and by the covariance of large
+/// reduced systems.
+pub(crate) struct SparseSchurSystem {
+    pub matrix: BlockSparseCholesky,
+    /// Pair index for each entry of the U pattern.
+    u_pairs: Vec<usize>,
+    /// Per eliminated block: (coupled i, coupled j, pair) for coupled pairs with i <= j.
+    elim_pairs: Vec<Vec<(usize, usize, usize)>>,
+    scratch: Vec<f64>,
+}
+
+impl SparseSchurSystem {
+    pub fn new(problem: &Problem) -> Result<Self, SymbolicFailure> {
+        let reduced_dims: Vec<usize> = problem
+            .reduced_blocks
+            .iter()
+            .map(|&b| problem.dims[b])
+            .collect();
+        let mut pairs: Vec<(usize, usize)> = problem
+            .u_pattern
+            .pairs
+            .iter()
+            .map(|&(a, b, _)| (a, b))
+            .collect();
+        for e in &problem.eliminated {
+            for &(a, _) in &e.coupled {
+                for &(b, _) in &e.coupled {
+                    if a < b {
+                        pairs.push((a, b));
+                    }
+                }
+            }
+        }
+        let matrix = BlockSparseCholesky::new(&reduced_dims, pairs)?;
+        let u_pairs = problem
+            .u_pattern
+            .pairs
+            .iter()
+            .map(|&(a, b, _)| matrix.pair(a, b).unwrap_or(0))
+            .collect();
+        let elim_pairs = problem
+            .eliminated
+            .iter()
+            .map(|e| {
+                let mut list = Vec::new();
+                for (i, &(a, _)) in e.coupled.iter().enumerate() {
+                    for (j, &(b, _)) in e.coupled.iter().enumerate() {
+                        if a <= b {
+                            list.push((i, j, matrix.pair(a, b).unwrap_or(0)));
+                        }
+                    }
+                }
+                list
+            })
+            .collect();
+        let max_dim = reduced_dims.iter().copied().max().unwrap_or(0);
+        Ok(Self {
+            matrix,
+            u_pairs,
+            elim_pairs,
+            scratch: vec![0.0; max_dim * max_dim],
+        })
+    }
+
+    /// Fills the matrix with `S + diag(damping)` from `U` and the chunks' `Y_e` (after
+    /// [`eliminate_chunk`]), and, if given, `rhs` with `-g_r + sum_e Y_e z_e`.
+    pub fn assemble(
+        &mut self,
+        problem: &Problem,
+        ne: &NormalEquations,
+        damping: &[f64],
+        mut rhs: Option<&mut Vec<f64>>,
+    ) {
+        let Self {
+            matrix,
+            u_pairs,
+            elim_pairs,
+            scratch,
+        } = self;
+        matrix.clear();
+        add_u_blocks(problem, ne, matrix, u_pairs);
+        for (ra, &block) in problem.reduced_blocks.iter().enumerate() {
+            let o = problem.offsets[block];
+            let d = problem.dims[block];
+            matrix.add_diagonal(ra, &damping[o..o + d]);
+            if let Some(rhs) = rhs.as_deref_mut() {
+                let g0 = problem.reduced_offsets[ra];
+                for i in 0..d {
+                    rhs[g0 + i] = -ne.g[o + i];
+                }
+            }
+        }
+        for chunk in &ne.chunks {
+            for (local, e) in chunk.elim.clone().enumerate() {
+                let layout = &problem.eliminated[e];
+                let (d, rows) = (layout.dim, layout.w_rows);
+                let wo = chunk.w_off[local];
+                let go = chunk.g_off[local];
+                let y = &chunk.y[wo..wo + rows * d];
+                let z = &chunk.z[go..go + d];
+                for &(ci, cj, p) in &elim_pairs[e] {
+                    let (ra, oi) = layout.coupled[ci];
+                    let (rb, oj) = layout.coupled[cj];
+                    let di = problem.dims[problem.reduced_blocks[ra]];
+                    let dj = problem.dims[problem.reduced_blocks[rb]];
+                    for j in 0..dj {
+                        for i in 0..di {
+                            let mut acc = 0.0;
+                            for k in 0..d {
+                                acc += y[oi + i + k * rows] * y[oj + j + k * rows];
+                            }
+                            scratch[i + j * di] = acc;
+                        }
+                    }
+                    matrix.add_block(p, scratch, di, -1.0);
+                }
+                if let Some(rhs) = rhs.as_deref_mut() {
+                    for &(ra, oi) in &layout.coupled {
+                        let di = problem.dims[problem.reduced_blocks[ra]];
+                        let g0 = problem.reduced_offsets[ra];
+                        for i in 0..di {
+                            let mut acc = 0.0;
+                            for k in 0..d {
+                                acc += y[oi + i + k * rows] * z[k];
+                            }
+                            rhs[g0 + i] += acc;
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -650,7 +691,8 @@ pub(crate) mod tests {
         damping: &[f64],
         target_work: usize,
     ) -> Result<Vec<f64>, SolveFailed> {
-        let mut ne = NormalEquations::new(problem, target_work);
+        let mut ne =
+            NormalEquations::new(problem, target_work, kind == LinearSolverKind::DenseSchur);
         ne.evaluate(problem, cost, x, true, None).unwrap();
         let mut solver = LinearSolver::new(kind, problem, &mut ne).unwrap();
         assert_eq!(solver.kind(), kind);
@@ -740,7 +782,7 @@ pub(crate) mod tests {
                 .collect();
             let generic = step_with(LinearSolverKind::DenseSchur, &problem, &cost, &x, &damping, 20).unwrap();
             let fused_cost = FusedRandomLinear(cost);
-            let mut ne = NormalEquations::new(&problem, 20);
+            let mut ne = NormalEquations::new(&problem, 20, true);
             ne.evaluate(&problem, &fused_cost, &x, true, None).unwrap();
             let mut solver = LinearSolver::new(LinearSolverKind::DenseSchur, &problem, &mut ne).unwrap();
             let mut fused = vec![0.0; problem.num_parameters()];

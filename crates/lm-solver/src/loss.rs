@@ -81,12 +81,18 @@ impl Loss {
     }
 }
 
-/// Applies the correction in place to a residual block's residual `r` (length `rows`) and
-/// column-major Jacobian `jac` (`rows x cols`), given `rho = Loss::evaluate(|r|^2)`.
+/// Applies the correction in place to a group of residuals `r` and the matching rows of a
+/// column-major Jacobian, given `rho = Loss::evaluate(|r|^2)`. The Jacobian is given as
+/// `(jac, rows, first_row, cols)`: a `rows x cols` matrix whose rows `first_row..first_row +
+/// r.len()` belong to `r` (a whole residual block is `first_row = 0`, `rows = r.len()`).
 ///
 /// The Jacobian must be corrected before the residual (it uses the uncorrected residual), which
 /// this function takes care of.
-pub(crate) fn apply_correction(rho: [f64; 3], r: &mut [f64], jac: Option<(&mut [f64], usize)>) {
+pub(crate) fn apply_correction(
+    rho: [f64; 3],
+    r: &mut [f64],
+    jac: Option<(&mut [f64], usize, usize, usize)>,
+) {
     let s: f64 = r.iter().map(|v| v * v).sum();
     let sqrt_rho1 = rho[1].sqrt();
     let (residual_scale, alpha_over_s) = if s == 0.0 || rho[2] <= 0.0 {
@@ -96,10 +102,9 @@ pub(crate) fn apply_correction(rho: [f64; 3], r: &mut [f64], jac: Option<(&mut [
         let alpha = 1.0 - (1.0 + 2.0 * s * rho[2] / rho[1]).sqrt();
         (sqrt_rho1 / (1.0 - alpha), alpha / s)
     };
-    if let Some((jac, cols)) = jac {
-        let rows = r.len();
+    if let Some((jac, rows, first, cols)) = jac {
         for c in 0..cols {
-            let col = &mut jac[c * rows..(c + 1) * rows];
+            let col = &mut jac[c * rows + first..c * rows + first + r.len()];
             if alpha_over_s != 0.0 {
                 let dot: f64 = col.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
                 let k = alpha_over_s * dot;
@@ -156,7 +161,7 @@ mod tests {
         let s: f64 = r0.iter().map(|v| v * v).sum();
         let rho = loss.evaluate(s);
         let (mut r, mut j) = (r0, j0);
-        apply_correction(rho, &mut r, Some((&mut j, 2)));
+        apply_correction(rho, &mut r, Some((&mut j, 3, 0, 2)));
         let jtr0: Vec<f64> = (0..2)
             .map(|c| (0..3).map(|i| j0[c * 3 + i] * r0[i]).sum())
             .collect();
@@ -183,7 +188,7 @@ mod tests {
             let rho = loss.evaluate(s);
             let mut r = r0;
             let mut j = j0;
-            apply_correction(rho, &mut r, Some((&mut j, 2)));
+            apply_correction(rho, &mut r, Some((&mut j, 3, 0, 2)));
             for c in 0..2 {
                 let corrected: f64 = (0..3).map(|i| j[c * 3 + i] * r[i]).sum();
                 let robust: f64 = rho[1] * (0..3).map(|i| j0[c * 3 + i] * r0[i]).sum::<f64>();

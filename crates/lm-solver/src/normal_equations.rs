@@ -81,14 +81,18 @@ pub(crate) struct NormalEquations {
     pub chunks: Vec<Chunk>,
     /// `U` values (layout `Problem::u_pattern`).
     pub u: Vec<f64>,
-    /// Gradient `J^T r` in the flat parameter layout (zero for constant and fixed components).
+    /// Gradient `J^T r` in the tangent layout (zero for constant and fixed components).
     pub g: Vec<f64>,
     /// `0.5 * sum rho(|r_b|^2)`.
     pub cost: f64,
 }
 
 /// Splits the work into chunks of roughly equal size. The split depends only on the problem.
-fn plan_chunks(problem: &Problem, target_work: usize) -> Vec<(Range<usize>, Range<usize>)> {
+fn plan_chunks(
+    problem: &Problem,
+    target_work: usize,
+    dense_reduced: bool,
+) -> Vec<(Range<usize>, Range<usize>)> {
     let work_of = |r: usize| {
         let l = &problem.residuals[r];
         (l.dim * (l.cols + 1)).max(1)
@@ -101,8 +105,14 @@ fn plan_chunks(problem: &Problem, target_work: usize) -> Vec<(Range<usize>, Rang
     let free_work: Vec<usize> = problem.free_residuals.iter().map(|&r| work_of(r)).collect();
     let total: usize = elim_work.iter().sum::<usize>() + free_work.iter().sum::<usize>();
     // Enough chunks to feed a few threads, few enough that the per-chunk copies of the shared
-    // partial sums (U, the reduced gradient, a dense Schur block) stay small.
-    let shared = problem.u_pattern.len + problem.reduced_dim * (problem.reduced_dim + 1);
+    // partial sums (U, the reduced gradient and, for the dense Schur solver only, a dense
+    // partial Schur complement) stay small.
+    let dense = if dense_reduced {
+        problem.reduced_dim * (problem.reduced_dim + 1)
+    } else {
+        problem.reduced_dim
+    };
+    let shared = problem.u_pattern.len + dense;
     let memory_cap = (4_000_000 / shared.max(1)).max(1);
     let count = (total / target_work.max(1)).clamp(1, 128).min(memory_cap);
     let target = total.div_ceil(count).max(1);
@@ -138,9 +148,10 @@ fn plan_chunks(problem: &Problem, target_work: usize) -> Vec<(Range<usize>, Rang
 
 impl NormalEquations {
     /// Allocates all storage for `problem`, in chunks of about `target_work` units (residual rows
-    /// times Jacobian columns).
-    pub fn new(problem: &Problem, target_work: usize) -> Self {
-        let chunks = plan_chunks(problem, target_work)
+    /// times Jacobian columns). `dense_reduced` says whether each chunk will hold a dense partial
+    /// Schur complement (the dense Schur solver), which bounds how many chunks are worth making.
+    pub fn new(problem: &Problem, target_work: usize, dense_reduced: bool) -> Self {
+        let chunks = plan_chunks(problem, target_work, dense_reduced)
             .into_iter()
             .map(|(elim, free)| {
                 let (mut v_off, mut w_off, mut g_off) = (Vec::new(), Vec::new(), Vec::new());
@@ -183,7 +194,7 @@ impl NormalEquations {
         Self {
             chunks,
             u: vec![0.0; problem.u_pattern.len],
-            g: vec![0.0; problem.num_parameters],
+            g: vec![0.0; problem.num_tangent],
             cost: 0.0,
         }
     }
@@ -268,6 +279,13 @@ impl NormalEquations {
     }
 }
 
+/// `sum_g rho(|r_g|^2)` over the groups of `group` consecutive residuals.
+pub(crate) fn grouped_loss(loss: crate::loss::Loss, group: usize, res: &[f64]) -> f64 {
+    res.chunks(group)
+        .map(|g| loss.evaluate(g.iter().map(|v| v * v).sum())[0])
+        .sum()
+}
+
 fn evaluate_chunk<C: CostFunction>(
     problem: &Problem,
     cost_fn: &C,
@@ -309,18 +327,20 @@ fn evaluate_residual<C: CostFunction>(
     let (rows, cols) = (layout.dim, layout.cols);
     let mut refs: [&[f64]; MAX_BLOCKS_PER_RESIDUAL] = [&[]; MAX_BLOCKS_PER_RESIDUAL];
     for (k, p) in layout.params.iter().enumerate() {
-        refs[k] = &x[problem.offsets[p.block]..][..problem.dims[p.block]];
+        refs[k] = &x[problem.ambient_offsets[p.block]..][..problem.ambient_dims[p.block]];
     }
     let params = &refs[..layout.params.len()];
     let id = ResidualBlockId(r);
     let gram = &mut chunk.gram[..cols * cols];
     let jtr = &mut chunk.jtr[..cols];
-    let fused = if linearize && layout.loss.is_trivial() {
+    let fused = if linearize {
         let mut blocks = GramBlocks {
             gram: &mut *gram,
             gradient: &mut *jtr,
             cols,
             layout: &layout.jac_layout,
+            loss: layout.loss,
+            group: layout.group,
         };
         cost_fn.evaluate_gram(id, params, &mut blocks)
     } else {
@@ -366,14 +386,25 @@ fn evaluate_residual<C: CostFunction>(
         if !s.is_finite() {
             return Err(EvaluationFailure::NonFinite { residual: r });
         }
-        let rho = layout.loss.evaluate(s);
-        chunk.cost += 0.5 * rho[0];
+        if layout.loss.is_trivial() {
+            chunk.cost += 0.5 * s;
+        } else {
+            chunk.cost += 0.5 * grouped_loss(layout.loss, layout.group, res);
+        }
         if !linearize {
             return Ok(());
         }
         let jac = &mut chunk.jac[..rows * cols];
         if !layout.loss.is_trivial() {
-            apply_correction(rho, res, Some((jac, cols)));
+            for start in (0..rows).step_by(layout.group) {
+                let group = start..start + layout.group;
+                let s: f64 = res[group.clone()].iter().map(|v| v * v).sum();
+                apply_correction(
+                    layout.loss.evaluate(s),
+                    &mut res[group],
+                    Some((&mut *jac, rows, start, cols)),
+                );
+            }
         }
         // Fixed components: their columns do not take part.
         for p in &layout.params {

@@ -20,6 +20,8 @@
 //! ```
 
 use crate::cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
+use crate::loss::{Loss, apply_correction};
+use crate::normal_equations::grouped_loss;
 use crate::problem::ResidualBlockId;
 
 /// Central-difference Jacobian of `f: R^n -> R^m` at `x`.
@@ -255,6 +257,29 @@ pub fn check_gram<C: CostFunction>(
     rows: usize,
     relative_tolerance: f64,
 ) -> Result<(), CostCheckError> {
+    check_gram_with_loss(
+        cost,
+        block,
+        params,
+        rows,
+        Loss::Trivial,
+        rows,
+        relative_tolerance,
+    )
+}
+
+/// Like [`check_gram`] for a residual block with a robust `loss` applied to each group of
+/// `group` residuals: the fused products must equal those of the corrected Jacobian and
+/// residuals, and the returned value `sum_g rho(|r_g|^2)`.
+pub fn check_gram_with_loss<C: CostFunction>(
+    cost: &C,
+    block: ResidualBlockId,
+    params: &[&[f64]],
+    rows: usize,
+    loss: Loss,
+    group: usize,
+    relative_tolerance: f64,
+) -> Result<(), CostCheckError> {
     let mut layout = Vec::with_capacity(params.len());
     let mut cols = 0;
     for p in params {
@@ -270,12 +295,29 @@ pub fn check_gram<C: CostFunction>(
     };
     cost.evaluate(block, params, &mut residuals, Some(&mut jacobians))
         .map_err(CostCheckError::Evaluation)?;
+    let s_ref = if loss.is_trivial() {
+        residuals.iter().map(|v| v * v).sum()
+    } else {
+        let total = grouped_loss(loss, group, &residuals);
+        for start in (0..rows).step_by(group) {
+            let g = start..start + group;
+            let s: f64 = residuals[g.clone()].iter().map(|v| v * v).sum();
+            apply_correction(
+                loss.evaluate(s),
+                &mut residuals[g],
+                Some((&mut jac, rows, start, cols)),
+            );
+        }
+        total
+    };
     let (mut gram, mut gradient) = (vec![f64::NAN; cols * cols], vec![f64::NAN; cols]);
     let mut blocks = GramBlocks {
         gram: &mut gram,
         gradient: &mut gradient,
         cols,
         layout: &layout,
+        loss,
+        group,
     };
     let s = cost
         .evaluate_gram(block, params, &mut blocks)
@@ -284,7 +326,7 @@ pub fn check_gram<C: CostFunction>(
     let column = |c: usize| &jac[c * rows..(c + 1) * rows];
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     let diag: Vec<f64> = (0..cols).map(|c| dot(column(c), column(c))).collect();
-    let s_ref = dot(&residuals, &residuals);
+    let r_norm = dot(&residuals, &residuals);
     let mismatch = |row: usize, col: usize, fused: f64, reference: f64, scale: f64| {
         if (fused - reference).abs() <= relative_tolerance * scale && fused.is_finite() {
             Ok(())
@@ -304,7 +346,7 @@ pub fn check_gram<C: CostFunction>(
             usize::MAX,
             gradient[j],
             dot(column(j), &residuals),
-            (diag[j] * s_ref).sqrt(),
+            (diag[j] * r_norm).sqrt(),
         )?;
         for i in 0..cols {
             mismatch(

@@ -7,9 +7,13 @@
 //!
 //! Parameter values live in one flat vector `x`; block `i` occupies
 //! `x[problem.offset(i)..problem.offset(i) + problem.dim(i)]`, blocks in the order they were added.
+//! Steps, gradients, fixed components and covariances use the *tangent* layout, which is the same
+//! unless some block has a [`Manifold`] (`problem.tangent_offset(i)`, `problem.tangent_dim(i)`).
 
 use crate::loss::Loss;
+use crate::manifold::Manifold;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// Maximum number of parameter blocks one residual block may depend on.
 pub const MAX_BLOCKS_PER_RESIDUAL: usize = 16;
@@ -23,6 +27,7 @@ pub struct ParameterBlockId(pub usize);
 pub struct ResidualBlockId(pub usize);
 
 /// Errors in the problem description, reported by [`ProblemBuilder::build`].
+#[non_exhaustive]
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ProblemError {
     /// A parameter block was declared with dimension zero.
@@ -76,6 +81,33 @@ pub enum ProblemError {
         /// Second eliminated block.
         second: usize,
     },
+    /// A manifold's ambient dimension differs from its parameter block's dimension, or its
+    /// tangent dimension is zero.
+    #[error(
+        "parameter block {block} has dimension {dim} but its manifold expects {ambient} values and has {tangent} degrees of freedom"
+    )]
+    ManifoldDimension {
+        /// The block.
+        block: usize,
+        /// The block's dimension.
+        dim: usize,
+        /// The manifold's ambient dimension.
+        ambient: usize,
+        /// The manifold's tangent dimension.
+        tangent: usize,
+    },
+    /// A residual block's loss group size does not divide its dimension.
+    #[error(
+        "residual block {residual} has dimension {dim}, which loss groups of {group} do not divide"
+    )]
+    LossGroup {
+        /// The residual block.
+        residual: usize,
+        /// Its dimension.
+        dim: usize,
+        /// The group size.
+        group: usize,
+    },
     /// A fixed component index is out of range.
     #[error("parameter block {block} has dimension {dim}; component {component} cannot be fixed")]
     ComponentOutOfRange {
@@ -108,6 +140,7 @@ struct ParameterSpec {
     constant: bool,
     eliminate: bool,
     fixed: Vec<usize>,
+    manifold: Option<Arc<dyn Manifold>>,
 }
 
 #[derive(Debug, Clone)]
@@ -115,6 +148,8 @@ struct ResidualSpec {
     dim: usize,
     blocks: Vec<ParameterBlockId>,
     loss: Loss,
+    /// Rows per loss group (0: the whole block is one group).
+    group: usize,
 }
 
 /// Builds a [`Problem`]: declare parameter blocks, then residual blocks that depend on them.
@@ -151,6 +186,7 @@ impl ProblemBuilder {
             constant: false,
             eliminate: false,
             fixed: Vec::new(),
+            manifold: None,
         });
         ParameterBlockId(self.parameters.len() - 1)
     }
@@ -163,8 +199,20 @@ impl ProblemBuilder {
         self.parameters[block.0].constant = constant;
     }
 
+    /// Gives a block a [`Manifold`]: it is then moved by `x ⊞ delta`, its Jacobian blocks are
+    /// taken with respect to the tangent increment, and its fixed components, gradient and
+    /// covariance are in tangent coordinates (see [`crate::manifold`]). The manifold's ambient
+    /// dimension must equal the block's dimension (checked by [`ProblemBuilder::build`]).
+    ///
+    /// # Panics
+    /// If `block` was not returned by this builder.
+    pub fn set_manifold(&mut self, block: ParameterBlockId, manifold: Arc<dyn Manifold>) {
+        self.parameters[block.0].manifold = Some(manifold);
+    }
+
     /// Holds the listed components of a block at their current values; the others are optimized.
-    /// Replaces any previous list. Indices are checked by [`ProblemBuilder::build`].
+    /// Replaces any previous list. Indices are checked by [`ProblemBuilder::build`]. For a block
+    /// with a manifold the indices are tangent components.
     ///
     /// # Panics
     /// If `block` was not returned by this builder.
@@ -202,10 +250,26 @@ impl ProblemBuilder {
         blocks: &[ParameterBlockId],
         loss: Loss,
     ) -> ResidualBlockId {
+        self.add_residual_block_with_grouped_loss(dim, blocks, loss, 0)
+    }
+
+    /// Adds a residual block whose loss applies to each group of `group` consecutive residuals
+    /// separately (`group` must divide `dim`; 0 means the whole block): the block's cost is
+    /// `sum_g rho(|r_g|^2) / 2`. A calibration view, say, is one residual block of `2 N` pixel
+    /// residuals with a robust loss per point (`group = 2`), so an outlier corner is
+    /// down-weighted without the rest of its view.
+    pub fn add_residual_block_with_grouped_loss(
+        &mut self,
+        dim: usize,
+        blocks: &[ParameterBlockId],
+        loss: Loss,
+        group: usize,
+    ) -> ResidualBlockId {
         self.residuals.push(ResidualSpec {
             dim,
             blocks: blocks.to_vec(),
             loss,
+            group,
         });
         ResidualBlockId(self.residuals.len() - 1)
     }
@@ -238,6 +302,8 @@ pub(crate) struct ResidualLayout {
     /// layout handed to the cost function.
     pub jac_layout: Vec<(usize, usize)>,
     pub loss: Loss,
+    /// Rows per loss group (divides `dim`).
+    pub group: usize,
     /// The eliminated block this residual depends on, if any: (eliminated index, local param
     /// index).
     pub eliminated: Option<(usize, usize)>,
@@ -274,11 +340,20 @@ pub(crate) struct UPattern {
 /// A validated problem structure, ready to be solved.
 #[derive(Debug, Clone)]
 pub struct Problem {
+    /// Tangent dimension and offset (in the step / gradient layout) of each block.
     pub(crate) dims: Vec<usize>,
     pub(crate) offsets: Vec<usize>,
+    /// Ambient dimension and offset (in the parameter vector `x`) of each block.
+    pub(crate) ambient_dims: Vec<usize>,
+    pub(crate) ambient_offsets: Vec<usize>,
+    pub(crate) manifolds: Vec<Option<Arc<dyn Manifold>>>,
+    /// True if some block has a manifold (the two layouts then differ or need `plus`).
+    pub(crate) has_manifolds: bool,
+    /// Length of the tangent layout.
+    pub(crate) num_tangent: usize,
     pub(crate) roles: Vec<BlockRole>,
-    /// Per parameter (flat index): true if the component is held fixed (fixed component or
-    /// constant block).
+    /// Per tangent component: true if the component is held fixed (fixed component or constant
+    /// block).
     pub(crate) fixed_mask: Vec<bool>,
     pub(crate) num_parameters: usize,
     pub(crate) num_free: usize,
@@ -309,6 +384,10 @@ impl Problem {
         }
         let mut dims = Vec::with_capacity(parameters.len());
         let mut offsets = Vec::with_capacity(parameters.len());
+        let mut ambient_dims = Vec::with_capacity(parameters.len());
+        let mut ambient_offsets = Vec::with_capacity(parameters.len());
+        let mut manifolds = Vec::with_capacity(parameters.len());
+        let mut ambient_offset = 0;
         let mut roles = Vec::with_capacity(parameters.len());
         let mut reduced_blocks = Vec::new();
         let mut reduced_offsets = Vec::new();
@@ -320,22 +399,41 @@ impl Problem {
             if p.dim == 0 {
                 return Err(ProblemError::EmptyParameterBlock { block: i });
             }
-            if let Some(&c) = p.fixed.iter().find(|&&c| c >= p.dim) {
+            let tangent = match &p.manifold {
+                Some(m) => {
+                    if m.ambient_dim() != p.dim || m.tangent_dim() == 0 {
+                        return Err(ProblemError::ManifoldDimension {
+                            block: i,
+                            dim: p.dim,
+                            ambient: m.ambient_dim(),
+                            tangent: m.tangent_dim(),
+                        });
+                    }
+                    m.tangent_dim()
+                }
+                None => p.dim,
+            };
+            if let Some(&c) = p.fixed.iter().find(|&&c| c >= tangent) {
                 return Err(ProblemError::ComponentOutOfRange {
                     block: i,
-                    dim: p.dim,
+                    dim: tangent,
                     component: c,
                 });
             }
-            dims.push(p.dim);
+            ambient_dims.push(p.dim);
+            ambient_offsets.push(ambient_offset);
+            ambient_offset += p.dim;
+            manifolds.push(p.manifold.clone());
+            let dim = tangent;
+            dims.push(dim);
             offsets.push(offset);
-            offset += p.dim;
+            offset += dim;
             let role = if p.constant {
                 BlockRole::Constant
             } else if p.eliminate {
                 eliminated.push(EliminatedLayout {
                     block: i,
-                    dim: p.dim,
+                    dim,
                     coupled: Vec::new(),
                     w_rows: 0,
                     residuals: Vec::new(),
@@ -344,15 +442,17 @@ impl Problem {
             } else {
                 reduced_blocks.push(i);
                 reduced_offsets.push(reduced_dim);
-                reduced_dim += p.dim;
+                reduced_dim += dim;
                 BlockRole::Reduced(reduced_blocks.len() - 1)
             };
             roles.push(role);
-            for c in 0..p.dim {
+            for c in 0..dim {
                 fixed_mask.push(p.constant || p.fixed.binary_search(&c).is_ok());
             }
         }
-        let num_parameters = offset;
+        let num_tangent = offset;
+        let num_parameters = ambient_offset;
+        let has_manifolds = manifolds.iter().any(Option::is_some);
         let num_free = fixed_mask.iter().filter(|f| !**f).count();
 
         let mut residuals = Vec::with_capacity(residual_specs.len());
@@ -367,6 +467,18 @@ impl Problem {
         for (r, spec) in residual_specs.into_iter().enumerate() {
             if spec.dim == 0 {
                 return Err(ProblemError::EmptyResidualBlock { residual: r });
+            }
+            let group = if spec.group == 0 {
+                spec.dim
+            } else {
+                spec.group
+            };
+            if !spec.dim.is_multiple_of(group) {
+                return Err(ProblemError::LossGroup {
+                    residual: r,
+                    dim: spec.dim,
+                    group,
+                });
             }
             if spec.blocks.len() > MAX_BLOCKS_PER_RESIDUAL {
                 return Err(ProblemError::TooManyParameterBlocks {
@@ -469,6 +581,7 @@ impl Problem {
                 params,
                 jac_layout,
                 loss: spec.loss,
+                group,
                 eliminated: elim,
                 u_targets,
                 // Temporarily holds reduced indices; turned into row offsets below.
@@ -498,6 +611,11 @@ impl Problem {
         Ok(Problem {
             dims,
             offsets,
+            ambient_dims,
+            ambient_offsets,
+            manifolds,
+            has_manifolds,
+            num_tangent,
             roles,
             fixed_mask,
             num_parameters,
@@ -521,7 +639,13 @@ impl Problem {
         self.num_parameters
     }
 
-    /// Number of parameters actually optimized (not constant, not fixed).
+    /// Length of the tangent layout (steps, gradients, fixed components): the number of
+    /// parameters unless some block has a manifold with fewer degrees of freedom than values.
+    pub fn num_tangent_parameters(&self) -> usize {
+        self.num_tangent
+    }
+
+    /// Number of parameters actually optimized (not constant, not fixed; tangent components).
     pub fn num_free_parameters(&self) -> usize {
         self.num_free
     }
@@ -541,26 +665,60 @@ impl Problem {
         self.residuals.len()
     }
 
-    /// Dimension of a parameter block.
+    /// Dimension of a parameter block (number of values in `x`).
     pub fn dim(&self, block: ParameterBlockId) -> usize {
+        self.ambient_dims[block.0]
+    }
+
+    /// Offset of a parameter block in the flat parameter vector `x`.
+    pub fn offset(&self, block: ParameterBlockId) -> usize {
+        self.ambient_offsets[block.0]
+    }
+
+    /// Degrees of freedom of a parameter block (its manifold's tangent dimension, else `dim`).
+    pub fn tangent_dim(&self, block: ParameterBlockId) -> usize {
         self.dims[block.0]
     }
 
-    /// Offset of a parameter block in the flat parameter vector.
-    pub fn offset(&self, block: ParameterBlockId) -> usize {
+    /// Offset of a parameter block in the tangent layout (steps, gradients, fixed components).
+    pub fn tangent_offset(&self, block: ParameterBlockId) -> usize {
         self.offsets[block.0]
     }
 
     /// The values of one block inside the flat parameter vector `x`.
     pub fn block<'a>(&self, x: &'a [f64], block: ParameterBlockId) -> &'a [f64] {
-        let o = self.offsets[block.0];
-        &x[o..o + self.dims[block.0]]
+        let o = self.ambient_offsets[block.0];
+        &x[o..o + self.ambient_dims[block.0]]
     }
 
     /// Mutable values of one block inside the flat parameter vector `x`.
     pub fn block_mut<'a>(&self, x: &'a mut [f64], block: ParameterBlockId) -> &'a mut [f64] {
-        let o = self.offsets[block.0];
-        &mut x[o..o + self.dims[block.0]]
+        let o = self.ambient_offsets[block.0];
+        &mut x[o..o + self.ambient_dims[block.0]]
+    }
+
+    /// Writes `x ⊞ step` into `out`: `x + step` for Euclidean blocks, [`Manifold::plus`] for the
+    /// others (`x`, `out`: parameter layout; `step`: tangent layout).
+    pub fn plus(&self, x: &[f64], step: &[f64], out: &mut [f64]) {
+        if !self.has_manifolds {
+            for ((o, a), b) in out.iter_mut().zip(x).zip(step) {
+                *o = a + b;
+            }
+            return;
+        }
+        for (b, manifold) in self.manifolds.iter().enumerate() {
+            let (ao, ad) = (self.ambient_offsets[b], self.ambient_dims[b]);
+            let (to, td) = (self.offsets[b], self.dims[b]);
+            let (xb, sb, ob) = (&x[ao..ao + ad], &step[to..to + td], &mut out[ao..ao + ad]);
+            match manifold {
+                Some(m) => m.plus(xb, sb, ob),
+                None => {
+                    for ((o, a), d) in ob.iter_mut().zip(xb).zip(sb) {
+                        *o = a + d;
+                    }
+                }
+            }
+        }
     }
 
     /// Dimension of the reduced system (sum of the dimensions of non-constant, non-eliminated
@@ -574,8 +732,8 @@ impl Problem {
         self.eliminated.len()
     }
 
-    /// True if component `i` of the flat parameter vector is held fixed (constant block or fixed
-    /// component).
+    /// True if component `i` of the tangent layout is held fixed (constant block or fixed
+    /// component); without manifolds the tangent layout is the parameter layout.
     pub fn is_fixed(&self, i: usize) -> bool {
         self.fixed_mask[i]
     }

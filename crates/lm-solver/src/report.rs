@@ -4,6 +4,7 @@ use crate::linear_solver::LinearSolverKind;
 use std::time::Duration;
 
 /// Why the Levenberg-Marquardt iteration stopped.
+#[non_exhaustive]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Termination {
     /// Converged: the largest gradient entry fell below `gradient_tolerance`.
@@ -21,6 +22,8 @@ pub enum Termination {
     DampingExhausted,
     /// Stopped: the cost or gradient at the current point became non-finite.
     NumericalFailure(String),
+    /// Stopped: the observer asked to stop (see `Solver::solve_with_observer`).
+    StoppedByObserver,
 }
 
 impl Termination {
@@ -33,6 +36,21 @@ impl Termination {
                 | Termination::ParameterTolerance
         )
     }
+
+    /// A stable machine-readable code: `gradient_tolerance`, `function_tolerance`,
+    /// `parameter_tolerance`, `max_iterations`, `damping_exhausted`, `numerical_failure`,
+    /// `stopped_by_observer`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Termination::GradientTolerance => "gradient_tolerance",
+            Termination::FunctionTolerance => "function_tolerance",
+            Termination::ParameterTolerance => "parameter_tolerance",
+            Termination::MaxIterations => "max_iterations",
+            Termination::DampingExhausted => "damping_exhausted",
+            Termination::NumericalFailure(_) => "numerical_failure",
+            Termination::StoppedByObserver => "stopped_by_observer",
+        }
+    }
 }
 
 impl std::fmt::Display for Termination {
@@ -44,6 +62,7 @@ impl std::fmt::Display for Termination {
             Termination::MaxIterations => write!(f, "stopped (maximum iterations)"),
             Termination::DampingExhausted => write!(f, "stopped (damping exhausted)"),
             Termination::NumericalFailure(why) => write!(f, "stopped (numerical failure: {why})"),
+            Termination::StoppedByObserver => write!(f, "stopped (by the observer)"),
         }
     }
 }
@@ -106,4 +125,219 @@ pub struct SolverReport {
     pub solve_time: Duration,
     /// Wall time of the whole solve.
     pub total_time: Duration,
+}
+
+/// JSON form of the report (with the `serde` feature): the keys of `docs/formats.md`
+/// (`termination`, `converged`, `iterations`, ..., `per_iteration`), times in seconds.
+#[cfg(feature = "serde")]
+mod serde_impl {
+    use super::*;
+    use serde::{Deserialize, Serialize};
+
+    #[derive(Serialize, Deserialize)]
+    struct RecordJson {
+        cost: f64,
+        trial_cost: Option<f64>,
+        gradient_max_norm: f64,
+        step_norm: f64,
+        gain_ratio: Option<f64>,
+        lambda: f64,
+        accepted: bool,
+        #[serde(default = "yes")]
+        solve_succeeded: bool,
+        #[serde(default)]
+        evaluate_seconds: f64,
+        #[serde(default)]
+        solve_seconds: f64,
+    }
+
+    fn yes() -> bool {
+        true
+    }
+
+    #[derive(Serialize, Deserialize)]
+    struct ReportJson {
+        termination: String,
+        termination_code: String,
+        #[serde(default)]
+        termination_detail: Option<String>,
+        converged: bool,
+        iterations: usize,
+        accepted_steps: usize,
+        initial_cost: f64,
+        final_cost: f64,
+        residual_evaluations: usize,
+        jacobian_evaluations: usize,
+        #[serde(default)]
+        linear_solves: usize,
+        linear_solver: String,
+        #[serde(default)]
+        num_residuals: usize,
+        #[serde(default)]
+        num_free_parameters: usize,
+        evaluate_seconds: f64,
+        solve_seconds: f64,
+        total_seconds: f64,
+        per_iteration: Vec<RecordJson>,
+    }
+
+    fn finite(v: f64) -> Option<f64> {
+        v.is_finite().then_some(v)
+    }
+
+    impl Serialize for SolverReport {
+        fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+            ReportJson {
+                termination: self.termination.to_string(),
+                termination_code: self.termination.code().to_string(),
+                termination_detail: match &self.termination {
+                    Termination::NumericalFailure(why) => Some(why.clone()),
+                    _ => None,
+                },
+                converged: self.termination.is_converged(),
+                iterations: self.iterations.len(),
+                accepted_steps: self.accepted_steps,
+                initial_cost: self.initial_cost,
+                final_cost: self.final_cost,
+                residual_evaluations: self.residual_evaluations,
+                jacobian_evaluations: self.jacobian_evaluations,
+                linear_solves: self.linear_solves,
+                linear_solver: format!("{:?}", self.linear_solver),
+                num_residuals: self.num_residuals,
+                num_free_parameters: self.num_free_parameters,
+                evaluate_seconds: self.evaluate_time.as_secs_f64(),
+                solve_seconds: self.solve_time.as_secs_f64(),
+                total_seconds: self.total_time.as_secs_f64(),
+                per_iteration: self
+                    .iterations
+                    .iter()
+                    .map(|r| RecordJson {
+                        cost: r.cost,
+                        trial_cost: finite(r.trial_cost),
+                        gradient_max_norm: r.gradient_max_norm,
+                        step_norm: r.step_norm,
+                        gain_ratio: finite(r.gain_ratio),
+                        lambda: r.lambda,
+                        accepted: r.accepted,
+                        solve_succeeded: r.solve_succeeded,
+                        evaluate_seconds: r.evaluate_time.as_secs_f64(),
+                        solve_seconds: r.solve_time.as_secs_f64(),
+                    })
+                    .collect(),
+            }
+            .serialize(serializer)
+        }
+    }
+
+    fn seconds(s: f64) -> Duration {
+        Duration::try_from_secs_f64(s.max(0.0)).unwrap_or_default()
+    }
+
+    impl<'de> Deserialize<'de> for SolverReport {
+        fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+            let j = ReportJson::deserialize(deserializer)?;
+            let termination = match j.termination_code.as_str() {
+                "gradient_tolerance" => Termination::GradientTolerance,
+                "function_tolerance" => Termination::FunctionTolerance,
+                "parameter_tolerance" => Termination::ParameterTolerance,
+                "max_iterations" => Termination::MaxIterations,
+                "damping_exhausted" => Termination::DampingExhausted,
+                "numerical_failure" => {
+                    Termination::NumericalFailure(j.termination_detail.unwrap_or_default())
+                }
+                "stopped_by_observer" => Termination::StoppedByObserver,
+                other => {
+                    return Err(serde::de::Error::custom(format!(
+                        "unknown termination code '{other}'"
+                    )));
+                }
+            };
+            let linear_solver = match j.linear_solver.as_str() {
+                "DenseSchur" => LinearSolverKind::DenseSchur,
+                "SparseSchur" => LinearSolverKind::SparseSchur,
+                "SparseCholesky" => LinearSolverKind::SparseCholesky,
+                "DenseReference" => LinearSolverKind::DenseReference,
+                _ => LinearSolverKind::Auto,
+            };
+            Ok(SolverReport {
+                termination,
+                initial_cost: j.initial_cost,
+                final_cost: j.final_cost,
+                iterations: j
+                    .per_iteration
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, r)| IterationRecord {
+                        iteration: i + 1,
+                        cost: r.cost,
+                        trial_cost: r.trial_cost.unwrap_or(f64::INFINITY),
+                        gradient_max_norm: r.gradient_max_norm,
+                        step_norm: r.step_norm,
+                        gain_ratio: r.gain_ratio.unwrap_or(f64::NAN),
+                        lambda: r.lambda,
+                        accepted: r.accepted,
+                        solve_succeeded: r.solve_succeeded,
+                        evaluate_time: seconds(r.evaluate_seconds),
+                        solve_time: seconds(r.solve_seconds),
+                    })
+                    .collect(),
+                accepted_steps: j.accepted_steps,
+                residual_evaluations: j.residual_evaluations,
+                jacobian_evaluations: j.jacobian_evaluations,
+                linear_solves: j.linear_solves,
+                linear_solver,
+                num_residuals: j.num_residuals,
+                num_free_parameters: j.num_free_parameters,
+                evaluate_time: seconds(j.evaluate_seconds),
+                solve_time: seconds(j.solve_seconds),
+                total_time: seconds(j.total_seconds),
+            })
+        }
+    }
+}
+
+#[cfg(all(test, feature = "serde"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn report_round_trips_through_json() {
+        let report = SolverReport {
+            termination: Termination::NumericalFailure("bad".into()),
+            initial_cost: 2.0,
+            final_cost: 1.0,
+            iterations: vec![IterationRecord {
+                iteration: 1,
+                cost: 1.0,
+                trial_cost: f64::INFINITY,
+                gradient_max_norm: 0.5,
+                step_norm: 0.1,
+                gain_ratio: f64::NAN,
+                lambda: 0.01,
+                accepted: false,
+                solve_succeeded: true,
+                evaluate_time: Duration::from_millis(3),
+                solve_time: Duration::from_millis(1),
+            }],
+            accepted_steps: 0,
+            residual_evaluations: 0,
+            jacobian_evaluations: 2,
+            linear_solves: 1,
+            linear_solver: LinearSolverKind::DenseSchur,
+            num_residuals: 10,
+            num_free_parameters: 3,
+            evaluate_time: Duration::from_millis(3),
+            solve_time: Duration::from_millis(1),
+            total_time: Duration::from_millis(5),
+        };
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["termination_code"], "numerical_failure");
+        assert_eq!(json["iterations"], 1);
+        assert!(json["per_iteration"][0]["trial_cost"].is_null());
+        let back: SolverReport = serde_json::from_value(json).unwrap();
+        assert_eq!(back.termination, report.termination);
+        assert_eq!(back.iterations.len(), 1);
+        assert!(back.iterations[0].gain_ratio.is_nan());
+        assert_eq!(back.total_time, report.total_time);
+    }
 }

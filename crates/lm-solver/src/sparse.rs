@@ -234,6 +234,53 @@ impl BlockSparseCholesky {
         }
     }
 
+    /// The scalar diagonal of the current values.
+    pub fn diagonal(&self) -> Vec<f64> {
+        (0..self.n)
+            .map(|c| {
+                // Rows are sorted within each column, so the diagonal entry is the last one.
+                let end = self.col_ptr[c + 1];
+                if end > self.col_ptr[c] && self.row_idx[end - 1] == c {
+                    self.values[end - 1]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// Factorizes the current values and solves `A X = B` in place for the `cols` columns of
+    /// `rhs` (column-major `n x cols`). Allocates the scratch of a multi-column solve: meant for
+    /// one-off uses such as selected columns of an inverse, not for iterations.
+    pub fn factorize_and_solve_columns(
+        &mut self,
+        rhs: &mut [f64],
+        cols: usize,
+    ) -> Result<(), NotPositiveDefinite> {
+        if cols == 0 {
+            return Ok(());
+        }
+        // The first column through the preallocated path factorizes.
+        let (first, rest) = rhs.split_at_mut(self.n);
+        self.factorize_and_solve(first)?;
+        if cols == 1 {
+            return Ok(());
+        }
+        let llt = faer::sparse::linalg::cholesky::LltRef::new(&self.symbolic, &self.l_values);
+        let scratch = self
+            .symbolic
+            .solve_in_place_scratch::<f64>(cols - 1, Par::Seq);
+        let mut memory = MemBuffer::try_new(scratch).map_err(|_| NotPositiveDefinite)?;
+        let stack = MemStack::new(&mut memory);
+        let rhs_mat = MatMut::from_column_major_slice_mut(rest, self.n, cols - 1);
+        llt.solve_in_place_with_conj(Conj::No, rhs_mat, Par::Seq, stack);
+        if rest.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(NotPositiveDefinite)
+        }
+    }
+
     /// The dense symmetric matrix (for tests): `n x n`, column-major.
     #[cfg(test)]
     pub fn to_dense(&self) -> Vec<f64> {

@@ -1,13 +1,15 @@
 //! The solver on non-camera problems whose answers are known independently.
 
+use lm_solver::manifold::{Manifold, RotationVector, UnitQuaternion};
 use lm_solver::numdiff::central_difference;
 use lm_solver::test_problems::{BearingAdjustment, PoseGraph, Rng};
 use lm_solver::{
-    CostFunction, CovarianceError, DampingPolicy, EvaluationError, JacobianBlocks,
-    LinearSolverKind, Loss, ProblemBuilder, ResidualBlockId, Solver, SolverError, SolverOptions,
-    Termination,
+    CostFunction, CovarianceError, DampingPolicy, EvaluationError, IterationRecord, JacobianBlocks,
+    LinearSolverKind, Loss, ObserverAction, ProblemBuilder, ResidualBlockId, Solver, SolverError,
+    SolverOptions, Termination,
 };
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, Rotation3, UnitQuaternion as Quat, Vector3};
+use std::sync::Arc;
 
 /// Residuals of a whole problem as one vector (for finite-difference Jacobians).
 fn stacked_residuals<C: CostFunction>(
@@ -159,9 +161,10 @@ fn exponential_fit_recovers_the_truth_with_both_damping_policies() {
         for _ in 0..cost.t.len() {
             builder.add_residual_block(1, &[ab]);
         }
-        let options = SolverOptions {
-            damping,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.damping = damping;
+            o
         };
         let mut solver = Solver::new(builder.build().unwrap(), options).unwrap();
         let mut x = vec![10.0, 0.5];
@@ -305,9 +308,10 @@ fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
     let p = builder.add_parameter_block(1);
     builder.add_residual_block(2, &[p]);
     for damping in [DampingPolicy::additive(), DampingPolicy::marquardt()] {
-        let options = SolverOptions {
-            damping,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.damping = damping;
+            o
         };
         let mut solver = Solver::new(builder.clone().build().unwrap(), options).unwrap();
         let mut x = vec![0.05];
@@ -340,10 +344,11 @@ fn bearing_adjustment_recovers_noise_free_truth_with_every_solver() {
     let truth = ba.truth();
     for kind in all_kinds() {
         let built = ba.build(true);
-        let options = SolverOptions {
-            linear_solver: kind,
-            chunk_work: 40,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.linear_solver = kind;
+            o.chunk_work = 40;
+            o
         };
         let mut solver = Solver::new(built.problem, options).unwrap();
         assert_eq!(solver.linear_solver(), kind);
@@ -447,9 +452,16 @@ fn unfixed_gauge_is_reported_as_rank_deficient() {
     let x = ba.truth();
     match solver.covariance(&ba, &x) {
         // Translation (2), rotation (1) and scale (1) are unobservable: rank = 15 - 4.
-        Err(CovarianceError::RankDeficient { rank, dimension }) => {
+        Err(CovarianceError::RankDeficient {
+            rank,
+            dimension,
+            weakest,
+        }) => {
             assert_eq!(dimension, 15);
             assert_eq!(rank, 11);
+            // The weakest direction is a gauge motion: it moves cameras.
+            assert!(!weakest.is_empty());
+            assert!(weakest.iter().all(|(b, _)| b.0 < cams.len()));
         }
         other => panic!("expected a rank deficiency, got {other:?}"),
     }
@@ -463,9 +475,10 @@ fn pose_graph_recovers_truth_and_solves_noisy_graphs() {
         LinearSolverKind::DenseSchur,
     ] {
         let built = graph.build();
-        let options = SolverOptions {
-            linear_solver: kind,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.linear_solver = kind;
+            o
         };
         let mut solver = Solver::new(built.problem, options).unwrap();
         let mut rng = Rng::new(1);
@@ -501,10 +514,11 @@ fn results_are_identical_for_any_thread_count() {
     let ba = BearingAdjustment::generate(20, 200, 1e-3, 13);
     let run = |threads: usize| {
         let built = ba.build(true);
-        let options = SolverOptions {
-            num_threads: threads,
-            chunk_work: 100,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.num_threads = threads;
+            o.chunk_work = 100;
+            o
         };
         let mut solver = Solver::new(built.problem, options).unwrap();
         assert!(solver.num_chunks() > 4);
@@ -588,9 +602,10 @@ fn evaluation_failures_error_at_the_start_and_reject_trial_steps() {
 fn termination_reasons_are_reported() {
     let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
     let built = ba.build(true);
-    let options = SolverOptions {
-        max_iterations: 1,
-        ..Default::default()
+    let options = {
+        let mut o = SolverOptions::default();
+        o.max_iterations = 1;
+        o
     };
     let mut solver = Solver::new(built.problem, options).unwrap();
     let mut x = ba.perturbed(0.3, 1);
@@ -611,15 +626,19 @@ fn termination_reasons_are_reported() {
     // The observer sees every attempt; evaluation counts follow the linearization mode.
     for eager in [true, false] {
         let built = ba.build(true);
-        let options = SolverOptions {
-            eager_linearization: eager,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.eager_linearization = eager;
+            o
         };
         let mut solver = Solver::new(built.problem, options).unwrap();
         let mut x = ba.perturbed(0.3, 1);
         let mut seen = 0;
         let report = solver
-            .solve_with_observer(&ba, &mut x, |_| seen += 1)
+            .solve_with_observer(&ba, &mut x, |_: &IterationRecord| {
+                seen += 1;
+                ObserverAction::Continue
+            })
             .unwrap();
         assert_eq!(seen, report.iterations.len());
         assert!(report.termination.is_converged());
@@ -644,9 +663,10 @@ fn eager_and_lazy_linearization_agree() {
     let ba = BearingAdjustment::generate(10, 60, 1e-3, 17);
     let run = |eager: bool| {
         let built = ba.build(true);
-        let options = SolverOptions {
-            eager_linearization: eager,
-            ..Default::default()
+        let options = {
+            let mut o = SolverOptions::default();
+            o.eager_linearization = eager;
+            o
         };
         let mut solver = Solver::new(built.problem, options).unwrap();
         let mut x = ba.perturbed(0.4, 5);
@@ -674,4 +694,330 @@ fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
         .zip(b)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max)
+}
+
+/// A robust loss applied per group inside one residual block is the same problem as one residual
+/// block per group with that loss: the same minimum.
+#[test]
+fn grouped_losses_equal_one_block_per_group() {
+    let mut rng = Rng::new(12);
+    let t: Vec<f64> = (0..60).map(|i| i as f64 / 6.0).collect();
+    let y: Vec<f64> = t
+        .iter()
+        .enumerate()
+        .map(|(i, t)| 1.0 + 2.0 * t + 0.1 * rng.normal() + if i % 7 == 0 { 20.0 } else { 0.0 })
+        .collect();
+    struct Stacked(Line);
+    impl CostFunction for Stacked {
+        fn evaluate(
+            &self,
+            _block: ResidualBlockId,
+            params: &[&[f64]],
+            residuals: &mut [f64],
+            jacobians: Option<&mut JacobianBlocks<'_>>,
+        ) -> Result<(), EvaluationError> {
+            let (a, b) = (params[0][0], params[0][1]);
+            let n = self.0.t.len();
+            for (i, (t, y)) in self.0.t.iter().zip(&self.0.y).enumerate() {
+                residuals[i] = a + b * t - y;
+            }
+            if let Some(j) = jacobians
+                && let Some(jac) = j.block_mut(0)
+            {
+                for (i, t) in self.0.t.iter().enumerate() {
+                    jac[i] = 1.0;
+                    jac[n + i] = *t;
+                }
+            }
+            Ok(())
+        }
+    }
+    let line = Line {
+        t: t.clone(),
+        y: y.clone(),
+    };
+    for loss in [Loss::Huber(0.3), Loss::Cauchy(0.3)] {
+        let mut separate = ProblemBuilder::new();
+        let p = separate.add_parameter_block(2);
+        for _ in 0..t.len() {
+            separate.add_residual_block_with_loss(1, &[p], loss);
+        }
+        let mut solver = Solver::new(separate.build().unwrap(), SolverOptions::default()).unwrap();
+        let mut a = vec![0.0, 0.0];
+        let ra = solver.solve(&line, &mut a).unwrap();
+        let mut grouped = ProblemBuilder::new();
+        let p = grouped.add_parameter_block(2);
+        grouped.add_residual_block_with_grouped_loss(t.len(), &[p], loss, 1);
+        let mut solver = Solver::new(grouped.build().unwrap(), SolverOptions::default()).unwrap();
+        let mut b = vec![0.0, 0.0];
+        let stacked = Stacked(Line {
+            t: t.clone(),
+            y: y.clone(),
+        });
+        let rb = solver.solve(&stacked, &mut b).unwrap();
+        assert!(ra.termination.is_converged() && rb.termination.is_converged());
+        assert!((ra.final_cost - rb.final_cost).abs() <= 1e-10 * ra.final_cost);
+        assert!(
+            max_abs_difference(&a, &b) < 1e-7,
+            "{loss:?}: {a:?} vs {b:?}"
+        );
+        assert!(
+            (b[0] - 1.0).abs() < 0.1 && (b[1] - 2.0).abs() < 0.02,
+            "{b:?}"
+        );
+    }
+    // A group size that does not divide the block is refused.
+    let mut bad = ProblemBuilder::new();
+    let p = bad.add_parameter_block(2);
+    bad.add_residual_block_with_grouped_loss(5, &[p], Loss::Huber(1.0), 2);
+    assert!(matches!(
+        bad.build(),
+        Err(lm_solver::ProblemError::LossGroup { group: 2, .. })
+    ));
+}
+
+/// An observer can end the solve; the report says so and `x` holds the last accepted point.
+#[test]
+fn an_observer_can_stop_the_solve() {
+    let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
+    let built = ba.build(true);
+    let mut solver = Solver::new(built.problem, SolverOptions::default()).unwrap();
+    let mut x = ba.perturbed(0.3, 1);
+    let start = x.clone();
+    let report = solver
+        .solve_with_observer(&ba, &mut x, |r: &IterationRecord| {
+            if r.iteration >= 2 {
+                ObserverAction::Stop
+            } else {
+                ObserverAction::Continue
+            }
+        })
+        .unwrap();
+    assert_eq!(report.termination, Termination::StoppedByObserver);
+    assert_eq!(report.iterations.len(), 2);
+    assert!(!report.termination.is_converged());
+    assert!(report.final_cost < report.initial_cost);
+    assert_ne!(x, start);
+}
+
+/// Rotation fit: find `R` with `R a_i ~ b_i`. The answer is known in closed form (the orthogonal
+/// Procrustes solution, `R = U diag(1, 1, det) V^T` of `sum b a^T`). Solved on the rotation
+/// manifold, stored as a rotation vector or a unit quaternion; the Jacobian is taken in the
+/// tangent space, `d (R exp(d) a) / d d = -R [a]x`.
+struct RotationFit {
+    a: Vec<Vector3<f64>>,
+    b: Vec<Vector3<f64>>,
+    quaternion: bool,
+}
+
+impl RotationFit {
+    fn rotation(&self, p: &[f64]) -> Matrix3<f64> {
+        if self.quaternion {
+            *Quat::from_quaternion(Quaternion::new(p[0], p[1], p[2], p[3]))
+                .to_rotation_matrix()
+                .matrix()
+        } else {
+            *Rotation3::from_scaled_axis(Vector3::new(p[0], p[1], p[2])).matrix()
+        }
+    }
+}
+
+impl CostFunction for RotationFit {
+    fn evaluate(
+        &self,
+        block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        let r = self.rotation(params[0]);
+        let (a, b) = (self.a[block.0], self.b[block.0]);
+        let e = r * a - b;
+        residuals.copy_from_slice(e.as_slice());
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            let d = -r * a.cross_matrix();
+            jac.copy_from_slice(d.as_slice());
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn rotations_are_solved_on_the_manifold() {
+    let mut rng = Rng::new(31);
+    // Rotations of up to pi, including one within 1e-3 rad of pi, where an additive update of a
+    // rotation vector is singular.
+    let truths = [
+        Vector3::new(0.3, -0.2, 0.5),
+        Vector3::new(-1.9, 1.1, 0.4),
+        Vector3::new(0.0, 0.0, std::f64::consts::PI - 1e-3),
+    ];
+    for (k, w) in truths.iter().enumerate() {
+        let truth = Rotation3::from_scaled_axis(*w);
+        let a: Vec<Vector3<f64>> = (0..30)
+            .map(|_| Vector3::new(rng.normal(), rng.normal(), rng.normal()))
+            .collect();
+        let b: Vec<Vector3<f64>> = a
+            .iter()
+            .map(|v| truth * v + 0.01 * Vector3::new(rng.normal(), rng.normal(), rng.normal()))
+            .collect();
+        // Closed form.
+        let m: Matrix3<f64> = a.iter().zip(&b).map(|(a, b)| b * a.transpose()).sum();
+        let svd = m.svd(true, true);
+        let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
+        let det = (u * vt).determinant().signum();
+        let procrustes = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, det)) * vt;
+        for quaternion in [false, true] {
+            let fit = RotationFit {
+                a: a.clone(),
+                b: b.clone(),
+                quaternion,
+            };
+            let manifold: Arc<dyn Manifold> = if quaternion {
+                Arc::new(UnitQuaternion)
+            } else {
+                Arc::new(RotationVector::rotation())
+            };
+            let mut builder = ProblemBuilder::new();
+            let p = builder.add_parameter_block(manifold.ambient_dim());
+            builder.set_manifold(p, manifold.clone());
+            for _ in 0..a.len() {
+                builder.add_residual_block(3, &[p]);
+            }
+            let problem = builder.build().unwrap();
+            assert_eq!(problem.num_tangent_parameters(), 3);
+            // Tangent Jacobian against finite differences through the manifold.
+            let start = if quaternion {
+                vec![1.0, 0.0, 0.0, 0.0]
+            } else {
+                vec![0.1, 0.2, -0.1]
+            };
+            let mut jac = vec![0.0; 9];
+            let mut res = vec![0.0; 3];
+            let numeric = central_difference(
+                |d, out| {
+                    let mut moved = vec![0.0; start.len()];
+                    manifold.plus(&start, d, &mut moved);
+                    fit.evaluate(ResidualBlockId(0), &[&moved], out, None)
+                        .unwrap();
+                },
+                &[0.0; 3],
+                3,
+                1e-6,
+            );
+            {
+                let mut blocks = jacobian_blocks(&mut jac, 3);
+                fit.evaluate(ResidualBlockId(0), &[&start], &mut res, Some(&mut blocks))
+                    .unwrap();
+            }
+            assert!(
+                max_abs_difference(&jac, &numeric) < 1e-8,
+                "{jac:?} vs {numeric:?}"
+            );
+
+            let mut solver = Solver::new(problem, SolverOptions::default()).unwrap();
+            let mut x = start.clone();
+            let report = solver.solve(&fit, &mut x).unwrap();
+            assert!(
+                report.termination.is_converged(),
+                "{k}: {}",
+                report.termination
+            );
+            let found = fit.rotation(&x);
+            assert!(
+                (found - procrustes).norm() < 1e-8,
+                "truth {k}, quaternion {quaternion}: {}",
+                (found - procrustes).norm()
+            );
+            if quaternion {
+                let norm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+                assert!((norm - 1.0).abs() < 1e-12);
+            }
+            // The covariance lives in the tangent space: 3 x 3.
+            let cov = solver.covariance(&fit, &x).unwrap();
+            assert_eq!(cov.block(p).unwrap().shape(), (3, 3));
+        }
+    }
+}
+
+fn jacobian_blocks(buffer: &mut [f64], rows: usize) -> JacobianBlocks<'_> {
+    JacobianBlocks::new(buffer, rows, &[(0, 3)])
+}
+
+/// Beyond the dense limit, the covariance of a few blocks comes from a sparse factorization of
+/// the reduced system and a few solves; it equals the inverse of the full `J^T J`.
+#[test]
+fn selected_covariance_of_a_large_sparse_problem_matches_the_dense_inverse() {
+    // 200 cameras x 3 = 600 reduced parameters (beyond the dense limit of 512).
+    let ba = BearingAdjustment::generate(200, 8, 1e-3, 5);
+    let built = ba.build(true);
+    let problem = built.problem.clone();
+    assert!(problem.reduced_dim() > lm_solver::covariance::DENSE_COVARIANCE_LIMIT);
+    let options = {
+        let mut o = SolverOptions::default();
+        o.linear_solver = LinearSolverKind::SparseSchur;
+        o
+    };
+    let mut solver = Solver::new(built.problem, options).unwrap();
+    let mut x = ba.perturbed(0.05, 3);
+    let report = solver.solve(&ba, &mut x).unwrap();
+    assert!(report.termination.is_converged(), "{}", report.termination);
+    let wanted = [
+        built.blocks[1],
+        built.blocks[57],
+        built.blocks[199],
+        built.blocks[203],
+    ];
+    // Blocks that were not requested (nor needed) are not computed.
+    let cameras_only = solver.covariance_of(&ba, &x, &wanted[..3]).unwrap();
+    assert!(cameras_only.block(built.blocks[100]).is_none());
+    assert!(cameras_only.block(built.blocks[57]).is_some());
+    let cov = solver.covariance_of(&ba, &x, &wanted).unwrap();
+
+    let m = problem.num_residuals();
+    let jac = central_difference(
+        |v, out| stacked_residuals(&ba, &problem, v, out),
+        &x,
+        m,
+        1e-7,
+    );
+    let free: Vec<usize> = (0..problem.num_parameters())
+        .filter(|&i| !problem.is_fixed(i))
+        .collect();
+    let j = DMatrix::from_fn(m, free.len(), |i, k| jac[i + free[k] * m]);
+    let mut r = vec![0.0; m];
+    stacked_residuals(&ba, &problem, &x, &mut r);
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / (m - free.len()) as f64;
+    let dense = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
+    let position = |i: usize| free.iter().position(|&f| f == i);
+    for &block in &wanted {
+        let c = cov.block(block).unwrap();
+        let o = problem.offset(block);
+        for a in 0..c.nrows() {
+            for b in 0..c.ncols() {
+                match (position(o + a), position(o + b)) {
+                    (Some(pa), Some(pb)) => {
+                        let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
+                        assert!(
+                            (c[(a, b)] - dense[(pa, pb)]).abs() <= 1e-5 * scale,
+                            "{block:?} ({a},{b}): {} vs {}",
+                            c[(a, b)],
+                            dense[(pa, pb)]
+                        );
+                    }
+                    _ => assert_eq!(c[(a, b)], 0.0),
+                }
+            }
+        }
+    }
+    // Cross-covariance of two requested cameras.
+    let cross = cov.cross(built.blocks[57], built.blocks[199]).unwrap();
+    let (pa, pb) = (
+        position(problem.offset(built.blocks[57])).unwrap(),
+        position(problem.offset(built.blocks[199])).unwrap(),
+    );
+    let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
+    assert!((cross[(0, 0)] - dense[(pa, pb)]).abs() <= 1e-5 * scale);
 }
