@@ -47,6 +47,9 @@ pub fn calibrate_with_model<D: LensDistortion>(
     match options.rotation {
         RotationKind::EulerXyz => solve::<D, EulerXyz>(prepared, options, start),
         RotationKind::AxisAngle => solve::<D, AxisAngle>(prepared, options, start),
+        _ => Err(CalibrationError::InvalidOption(
+            "rotation kind not supported".into(),
+        )),
     }
 }
 

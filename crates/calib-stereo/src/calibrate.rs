@@ -102,6 +102,9 @@ pub fn calibrate_stereo_with_model<D: LensDistortion>(
     match options.rotation {
         RotationKind::EulerXyz => optimize::<D, EulerXyz>(setup, options),
         RotationKind::AxisAngle => optimize::<D, AxisAngle>(setup, options),
+        _ => Err(StereoError::RigInitialization(
+            "rotation kind not supported".into(),
+        )),
     }
 }
 

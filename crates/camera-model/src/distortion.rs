@@ -1,10 +1,19 @@
 //! Lens distortion models acting on normalized image coordinates.
 //!
-//! A model maps an ideal normalized point `n = (x/z, y/z)` to the distorted normalized point
-//! `d(n)`; intrinsics then turn `d(n)` into pixels. Models implement [`LensDistortion`], whose
-//! parameter Jacobian is a fixed-size matrix type chosen by the model, so nothing allocates.
-//! The solver and the calibration pipelines only see the parameter vector and the Jacobians, so a
-//! new model (k3, rational, fisheye) is a new implementation of this trait and nothing else.
+//! A model maps an ideal point `n` of the projection plane (pinhole: `(x/z, y/z)`; equidistant:
+//! `theta (x, y) / r`) to the distorted point `d(n)`; intrinsics then turn `d(n)` into pixels.
+//! Models implement [`LensDistortion`], whose parameter Jacobian is a fixed-size matrix type
+//! chosen by the model, so nothing allocates. The solver and the calibration pipelines only see
+//! the parameter vector and the Jacobians, so a new model is a new implementation of this trait
+//! (plus a variant of [`crate::CameraModel`]) and nothing else.
+//!
+//! | model | parameters (OpenCV order) | acts on |
+//! |---|---|---|
+//! | [`BrownConrady`] (`brown-conrady4`) | k1 k2 p1 p2 | pinhole |
+//! | [`BrownConrady5`] | k1 k2 p1 p2 k3 | pinhole |
+//! | [`Rational8`] | k1 k2 p1 p2 k3 k4 k5 k6 | pinhole |
+//! | [`ThinPrism12`] | k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4 | pinhole |
+//! | [`KannalaBrandt4`] | k1 k2 k3 k4 | equidistant |
 //!
 //! Derivations: `docs/camera-model.md`, section "Distortion".
 
@@ -78,9 +87,17 @@ pub trait LensDistortion:
         n: &Vector2<f64>,
     ) -> (Vector2<f64>, Matrix2<f64>, Self::ParamJacobian);
 
-    /// The model with all parameters zero: the identity map for every model in this crate.
-    fn identity() -> Self {
-        Self::from_params(&[0.0; 64][..Self::NUM_PARAMS])
+    /// The model that leaves every point where it is (the calibration's start before any
+    /// distortion is estimated). For every model in this crate these are the zero parameters,
+    /// but a model need not be built that way, so each states its own.
+    fn identity() -> Self;
+
+    /// The model's denominator at `n` for rational models (it must stay positive wherever the
+    /// model is used: a vanishing denominator sends points to infinity), `None` for polynomial
+    /// ones.
+    fn denominator(&self, n: &Vector2<f64>) -> Option<f64> {
+        let _ = n;
+        None
     }
 }
 
@@ -115,7 +132,7 @@ impl BrownConrady {
 
 impl LensDistortion for BrownConrady {
     const NUM_PARAMS: usize = 4;
-    const NAME: &'static str = "brown-conrady-k1k2p1p2";
+    const NAME: &'static str = "brown-conrady4";
     const PARAM_NAMES: &'static [&'static str] = &["k1", "k2", "p1", "p2"];
     const TANGENTIAL_PARAMS: &'static [usize] = &[2, 3];
     type ParamJacobian = SMatrix<f64, 2, 4>;
@@ -128,6 +145,10 @@ impl LensDistortion for BrownConrady {
     #[inline]
     fn write_params(&self, out: &mut [f64]) {
         out[..4].copy_from_slice(&[self.k1, self.k2, self.p1, self.p2]);
+    }
+
+    fn identity() -> Self {
+        Self::default()
     }
 
     #[inline]
@@ -177,6 +198,248 @@ impl LensDistortion for BrownConrady {
             2.0 * xy,
         );
         (distorted, d_point, d_params)
+    }
+}
+
+/// The Brown-Conrady model with `k1, k2, p1, p2` (the name OpenCV and the issue tracker use for
+/// [`BrownConrady`]).
+pub type BrownConrady4 = BrownConrady;
+
+/// The rational radial + tangential + thin-prism model with all twelve OpenCV coefficients
+/// `[k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4]`, shared by [`BrownConrady5`], [`Rational8`]
+/// and [`ThinPrism12`] (which hold the unused ones at zero). With `r^2 = x^2 + y^2`,
+/// `c = (1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)`:
+///
+/// ```text
+/// x_d = x c + 2 p1 x y + p2 (r^2 + 2 x^2) + s1 r^2 + s2 r^4
+/// y_d = y c + p1 (r^2 + 2 y^2) + 2 p2 x y + s3 r^2 + s4 r^4
+/// ```
+#[inline]
+fn rational_thin_prism<const N: usize>(
+    k: &[f64; 12],
+    n: &Vector2<f64>,
+    jacobians: bool,
+) -> (Vector2<f64>, Matrix2<f64>, SMatrix<f64, 2, N>) {
+    let (x, y) = (n.x, n.y);
+    let (x2, y2, xy) = (x * x, y * y, x * y);
+    let r2 = x2 + y2;
+    let r4 = r2 * r2;
+    let r6 = r4 * r2;
+    let num = 1.0 + k[0] * r2 + k[1] * r4 + k[4] * r6;
+    let den = 1.0 + k[5] * r2 + k[6] * r4 + k[7] * r6;
+    let inv_den = 1.0 / den;
+    let c = num * inv_den;
+    let (p1, p2) = (k[2], k[3]);
+    let distorted = Vector2::new(
+        x * c + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2) + k[8] * r2 + k[9] * r4,
+        y * c + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy + k[10] * r2 + k[11] * r4,
+    );
+    if !jacobians {
+        return (distorted, Matrix2::zeros(), SMatrix::zeros());
+    }
+    // dc / d(r^2), then the chain d(r^2)/dx = 2x; again differentiating r^2 avoids 0/0 at 0.
+    let dnum = k[0] + 2.0 * k[1] * r2 + 3.0 * k[4] * r4;
+    let dden = k[5] + 2.0 * k[6] * r2 + 3.0 * k[7] * r4;
+    let dc = (dnum - c * dden) * inv_den;
+    let prism_x = k[8] + 2.0 * k[9] * r2;
+    let prism_y = k[10] + 2.0 * k[11] * r2;
+    let d_point = Matrix2::new(
+        c + 2.0 * dc * x2 + 2.0 * p1 * y + 6.0 * p2 * x + 2.0 * prism_x * x,
+        2.0 * dc * xy + 2.0 * p1 * x + 2.0 * p2 * y + 2.0 * prism_x * y,
+        2.0 * dc * xy + 2.0 * p1 * x + 2.0 * p2 * y + 2.0 * prism_y * x,
+        c + 2.0 * dc * y2 + 6.0 * p1 * y + 2.0 * p2 * x + 2.0 * prism_y * y,
+    );
+    // Columns in OpenCV order; a model with N < 12 coefficients takes the first N.
+    let radial = [r2 * inv_den, r4 * inv_den, r6 * inv_den];
+    let columns: [[f64; 2]; 12] = [
+        [x * radial[0], y * radial[0]],
+        [x * radial[1], y * radial[1]],
+        [2.0 * xy, r2 + 2.0 * y2],
+        [r2 + 2.0 * x2, 2.0 * xy],
+        [x * radial[2], y * radial[2]],
+        [-x * c * radial[0], -y * c * radial[0]],
+        [-x * c * radial[1], -y * c * radial[1]],
+        [-x * c * radial[2], -y * c * radial[2]],
+        [r2, 0.0],
+        [r4, 0.0],
+        [0.0, r2],
+        [0.0, r4],
+    ];
+    let mut d_params = SMatrix::<f64, 2, N>::zeros();
+    for (j, column) in columns.iter().take(N).enumerate() {
+        d_params[(0, j)] = column[0];
+        d_params[(1, j)] = column[1];
+    }
+    (distorted, d_point, d_params)
+}
+
+macro_rules! rational_family_model {
+    ($(#[$doc:meta])* $name:ident, $n:literal, $label:literal, [$($field:ident),*]) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Default)]
+        pub struct $name {
+            /// The coefficients in OpenCV's order (see [`LensDistortion::PARAM_NAMES`]).
+            pub coefficients: [f64; $n],
+        }
+
+        impl $name {
+            /// The model with the given coefficients (OpenCV's order).
+            pub const fn new(coefficients: [f64; $n]) -> Self {
+                Self { coefficients }
+            }
+
+            #[inline]
+            fn full(&self) -> [f64; 12] {
+                let mut k = [0.0; 12];
+                k[..$n].copy_from_slice(&self.coefficients);
+                k
+            }
+        }
+
+        impl LensDistortion for $name {
+            const NUM_PARAMS: usize = $n;
+            const NAME: &'static str = $label;
+            const PARAM_NAMES: &'static [&'static str] = &[$(stringify!($field)),*];
+            const TANGENTIAL_PARAMS: &'static [usize] = &[2, 3];
+            type ParamJacobian = SMatrix<f64, 2, $n>;
+
+            #[inline]
+            fn from_params(p: &[f64]) -> Self {
+                let mut coefficients = [0.0; $n];
+                coefficients.copy_from_slice(&p[..$n]);
+                Self { coefficients }
+            }
+
+            #[inline]
+            fn write_params(&self, out: &mut [f64]) {
+                out[..$n].copy_from_slice(&self.coefficients);
+            }
+
+            fn identity() -> Self {
+                Self::default()
+            }
+
+            #[inline]
+            fn distort(&self, n: &Vector2<f64>) -> Vector2<f64> {
+                rational_thin_prism::<$n>(&self.full(), n, false).0
+            }
+
+            #[inline]
+            fn distort_with_jacobians(
+                &self,
+                n: &Vector2<f64>,
+            ) -> (Vector2<f64>, Matrix2<f64>, SMatrix<f64, 2, $n>) {
+                rational_thin_prism::<$n>(&self.full(), n, true)
+            }
+
+            fn denominator(&self, n: &Vector2<f64>) -> Option<f64> {
+                let k = self.full();
+                let r2 = n.norm_squared();
+                ($n > 5).then(|| 1.0 + k[5] * r2 + k[6] * r2 * r2 + k[7] * r2 * r2 * r2)
+            }
+        }
+    };
+}
+
+rational_family_model!(
+    /// Brown-Conrady with `k3`: `[k1, k2, p1, p2, k3]`, OpenCV's default model (ROS
+    /// `plumb_bob`): radial factor `1 + k1 r^2 + k2 r^4 + k3 r^6` plus the tangential terms of
+    /// [`BrownConrady`].
+    BrownConrady5, 5, "brown-conrady5", [k1, k2, p1, p2, k3]
+);
+
+rational_family_model!(
+    /// OpenCV's rational model (`CALIB_RATIONAL_MODEL`, ROS `rational_polynomial`):
+    /// `[k1, k2, p1, p2, k3, k4, k5, k6]`, radial factor
+    /// `(1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)`. The denominator must
+    /// stay positive over the image ([`LensDistortion::denominator`]).
+    Rational8, 8, "rational8", [k1, k2, p1, p2, k3, k4, k5, k6]
+);
+
+rational_family_model!(
+    /// [`Rational8`] plus OpenCV's thin-prism terms (`CALIB_THIN_PRISM_MODEL`):
+    /// `[k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4]`, adding `s1 r^2 + s2 r^4` to `x_d` and
+    /// `s3 r^2 + s4 r^4` to `y_d`.
+    ThinPrism12, 12, "thin-prism12", [k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4]
+);
+
+/// The Kannala-Brandt fisheye model with four coefficients, acting on the equidistant
+/// projection (`|n| = theta`, the angle off the optical axis): the distorted angle is
+/// `theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8)` along the same
+/// direction, i.e. `d = n (1 + k1 |n|^2 + k2 |n|^4 + k3 |n|^6 + k4 |n|^8)`. The same model and
+/// coefficient order as OpenCV's `cv2.fisheye` (`D = [k1, k2, k3, k4]`) and Kalibr/ROS
+/// `equidistant`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KannalaBrandt4 {
+    /// `[k1, k2, k3, k4]`.
+    pub coefficients: [f64; 4],
+}
+
+impl KannalaBrandt4 {
+    /// The model with the given coefficients.
+    pub const fn new(coefficients: [f64; 4]) -> Self {
+        Self { coefficients }
+    }
+}
+
+impl LensDistortion for KannalaBrandt4 {
+    const NUM_PARAMS: usize = 4;
+    const NAME: &'static str = "kannala-brandt4";
+    const PARAM_NAMES: &'static [&'static str] = &["k1", "k2", "k3", "k4"];
+    type ParamJacobian = SMatrix<f64, 2, 4>;
+
+    #[inline]
+    fn from_params(p: &[f64]) -> Self {
+        Self::new([p[0], p[1], p[2], p[3]])
+    }
+
+    #[inline]
+    fn write_params(&self, out: &mut [f64]) {
+        out[..4].copy_from_slice(&self.coefficients);
+    }
+
+    fn identity() -> Self {
+        Self::default()
+    }
+
+    #[inline]
+    fn distort(&self, n: &Vector2<f64>) -> Vector2<f64> {
+        let [k1, k2, k3, k4] = self.coefficients;
+        let t2 = n.x * n.x + n.y * n.y;
+        let f = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)));
+        Vector2::new(n.x * f, n.y * f)
+    }
+
+    #[inline]
+    fn distort_with_jacobians(
+        &self,
+        n: &Vector2<f64>,
+    ) -> (Vector2<f64>, Matrix2<f64>, SMatrix<f64, 2, 4>) {
+        let [k1, k2, k3, k4] = self.coefficients;
+        let (x, y) = (n.x, n.y);
+        let t2 = x * x + y * y;
+        let f = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)));
+        // df / d(theta^2).
+        let df = k1 + t2 * (2.0 * k2 + t2 * (3.0 * k3 + t2 * 4.0 * k4));
+        let d_point = Matrix2::new(
+            f + 2.0 * df * x * x,
+            2.0 * df * x * y,
+            2.0 * df * x * y,
+            f + 2.0 * df * y * y,
+        );
+        let (t4, t6) = (t2 * t2, t2 * t2 * t2);
+        let t8 = t4 * t4;
+        let d_params = SMatrix::<f64, 2, 4>::new(
+            x * t2,
+            x * t4,
+            x * t6,
+            x * t8,
+            y * t2,
+            y * t4,
+            y * t6,
+            y * t8,
+        );
+        (Vector2::new(x * f, y * f), d_point, d_params)
     }
 }
 
@@ -236,5 +499,88 @@ mod tests {
             let r = compare_jacobians(ParamJacobian::as_slice(&d_params), &by_params, 2, 1e-6, 1e-3);
             prop_assert!(r.is_ok(), "{:?}", r);
         }
+    }
+
+    /// Checks one model's Jacobians against central differences at `n`. Same error budget as
+    /// the Brown-Conrady test above: values below 10 and third derivatives below 1e3 over the
+    /// sampled ranges give central-difference errors below 1e-8 with h = 1e-6, far under the
+    /// tolerance 1e-6 (|J| + 1e-3).
+    fn check_model<D: LensDistortion>(d: D, n: Vector2<f64>) -> Result<(), TestCaseError> {
+        let (value, d_point, d_params) = d.distort_with_jacobians(&n);
+        prop_assert_eq!(value, d.distort(&n));
+        let by_point = central_difference(
+            |v: &[f64], out: &mut [f64]| {
+                out.copy_from_slice(d.distort(&Vector2::new(v[0], v[1])).as_slice())
+            },
+            n.as_slice(),
+            2,
+            1e-6,
+        );
+        let r = compare_jacobians(d_point.as_slice(), &by_point, 2, 1e-6, 1e-3);
+        prop_assert!(r.is_ok(), "{}: d/dn {:?}", D::NAME, r);
+        let mut params = vec![0.0; D::NUM_PARAMS];
+        d.write_params(&mut params);
+        let by_params = central_difference(
+            |p: &[f64], out: &mut [f64]| {
+                out.copy_from_slice(D::from_params(p).distort(&n).as_slice())
+            },
+            &params,
+            2,
+            1e-6,
+        );
+        let r = compare_jacobians(
+            ParamJacobian::as_slice(&d_params),
+            &by_params,
+            2,
+            1e-6,
+            1e-3,
+        );
+        prop_assert!(r.is_ok(), "{}: d/dk {:?}", D::NAME, r);
+        prop_assert_eq!(D::identity().distort(&n), n);
+        Ok(())
+    }
+
+    proptest! {
+        #[test]
+        fn every_model_has_correct_jacobians(
+            k in prop::array::uniform12(-0.3f64..0.3), x in -1.0f64..1.0, y in -1.0f64..1.0
+        ) {
+            let n = Vector2::new(x, y);
+            // Tangential and prism terms are small in real lenses; the rational denominator's
+            // coefficients are kept so that it stays near one (|k4..k6| < 0.3, r^2 < 2).
+            let mut c = k;
+            for i in [2, 3, 8, 9, 10, 11] {
+                c[i] *= 0.05;
+            }
+            check_model(BrownConrady5::new([c[0], c[1], c[2], c[3], c[4]]), n)?;
+            check_model(Rational8::new([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]), n)?;
+            check_model(ThinPrism12::new(c), n)?;
+            check_model(KannalaBrandt4::new([c[0], c[1] * 0.3, c[4] * 0.1, c[5] * 0.03]), n)?;
+        }
+    }
+
+    /// Each richer model reduces to the simpler one when its extra coefficients are zero.
+    #[test]
+    fn models_nest() {
+        let n = Vector2::new(0.4, -0.3);
+        let four = BrownConrady::new(-0.2, 0.05, 0.001, -0.002);
+        let five = BrownConrady5::new([-0.2, 0.05, 0.001, -0.002, 0.0]);
+        let eight = Rational8::new([-0.2, 0.05, 0.001, -0.002, 0.0, 0.0, 0.0, 0.0]);
+        let twelve = ThinPrism12::new([
+            -0.2, 0.05, 0.001, -0.002, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ]);
+        for other in [five.distort(&n), eight.distort(&n), twelve.distort(&n)] {
+            assert!((other - four.distort(&n)).norm() < 1e-15);
+        }
+        assert_eq!(eight.denominator(&n), Some(1.0));
+        assert_eq!(five.denominator(&n), None);
+        // Kannala-Brandt: the distorted length is theta_d(theta).
+        let kb = KannalaBrandt4::new([0.1, -0.02, 0.003, -0.0004]);
+        let theta: f64 = 1.2;
+        let m = Vector2::new(theta * 0.6, theta * 0.8);
+        let theta_d = theta
+            * (1.0 + 0.1 * theta.powi(2) - 0.02 * theta.powi(4) + 0.003 * theta.powi(6)
+                - 0.0004 * theta.powi(8));
+        assert!((kb.distort(&m).norm() - theta_d).abs() < 1e-14);
     }
 }

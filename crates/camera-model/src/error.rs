@@ -2,6 +2,7 @@
 
 /// What can go wrong when projecting or back-projecting points.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum CameraModelError {
     /// The point is on or behind the camera's image plane (`z <= 0` in the camera frame), so it
     /// has no image.
@@ -38,4 +39,21 @@ pub enum CameraModelError {
     /// The distortion map is singular at the current estimate (its Jacobian is not invertible).
     #[error("distortion map is singular near the point being undistorted")]
     UndistortSingular,
+    /// The undistorted point is the image of no direction (beyond the projection's range, e.g. a
+    /// fisheye angle of 180 degrees or more).
+    #[error("the undistorted point lies outside the projection's range")]
+    OutsideProjection,
+    /// A camera model name that is not known.
+    #[error("unknown camera model '{0}' (known: {known})", known = crate::model::CameraModel::NAMES.join(", "))]
+    UnknownModel(String),
+    /// A parameter vector of the wrong length for its model.
+    #[error("model {model} has {expected} distortion coefficients, got {found}")]
+    ParameterCount {
+        /// The model name.
+        model: &'static str,
+        /// Expected number.
+        expected: usize,
+        /// Given number.
+        found: usize,
+    },
 }

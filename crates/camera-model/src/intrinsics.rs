@@ -1,6 +1,7 @@
 //! Pinhole intrinsics: focal lengths and principal point in pixels.
 
 use nalgebra::{Matrix3, Vector2, Vector4};
+use serde::{Deserialize, Serialize};
 
 /// Pinhole intrinsics, in pixels.
 ///
@@ -13,7 +14,7 @@ use nalgebra::{Matrix3, Vector2, Vector4};
 ///
 /// In the calibration literature these are `alpha_x = f k_x`, `alpha_y = f k_y` (focal length times
 /// pixels per unit length) and the principal point `(x_o, y_o)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
     /// Horizontal focal length `alpha_x`, pixels.
     pub fx: f64,

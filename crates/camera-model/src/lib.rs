@@ -1,12 +1,17 @@
-//! Pinhole camera model with lens distortion, rotation parameterizations and analytic Jacobians.
+//! Camera models (projection x lens distortion x intrinsics), rotation parameterizations and
+//! analytic Jacobians.
 //!
-//! The model maps a point `X` of the world (board) frame to a distorted pixel:
+//! A camera maps a point `X` of the world (board) frame to a distorted pixel:
 //!
 //! 1. camera frame: `s = R X + t` ([`Pose`], world to camera; `z` points forward),
-//! 2. normalized image plane: `n = (s_x / s_z, s_y / s_z)`,
-//! 3. lens distortion in normalized coordinates: `d = distortion(n)` ([`LensDistortion`], e.g.
-//!    [`BrownConrady`] with OpenCV's `k1, k2, p1, p2`),
+//! 2. projection plane: `n = projection(s)` ([`Projection`]: [`Pinhole`] `(s_x / s_z, s_y / s_z)`
+//!    or the fisheye [`Equidistant`]),
+//! 3. lens distortion: `d = distortion(n)` ([`LensDistortion`], e.g. [`BrownConrady`] with
+//!    OpenCV's `k1, k2, p1, p2`, [`Rational8`], [`KannalaBrandt4`]),
 //! 4. pixel: `(fx d_x + cx, fy d_y + cy)` ([`Intrinsics`]).
+//!
+//! [`Camera`] is generic over distortion and projection (static dispatch in the hot loops);
+//! [`CameraModel`] and [`AnyCamera`] choose the model at run time (command lines, files).
 //!
 //! Pixels follow OpenCV's convention: `(0, 0)` is the centre of the top-left pixel, `x` to the
 //! right, `y` down. Rotations are parameterized by Euler X-Y-Z angles ([`EulerXyz`],
@@ -44,20 +49,29 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod camera;
 pub mod distortion;
 pub mod error;
 pub mod intrinsics;
+pub mod model;
 pub mod pose;
 pub mod projection;
 pub mod rotation;
 pub mod undistort;
 
-pub use distortion::{BrownConrady, LensDistortion, ParamJacobian};
+pub use camera::{Camera, CameraPointJacobians, ProjectionJacobians};
+pub use distortion::{
+    BrownConrady, BrownConrady4, BrownConrady5, KannalaBrandt4, LensDistortion, ParamJacobian,
+    Rational8, ThinPrism12,
+};
 pub use error::CameraModelError;
 pub use intrinsics::Intrinsics;
+pub use model::{AnyCamera, CameraModel};
+/// The linear-algebra crate of the public API.
+pub use nalgebra;
 pub use pose::{DifferentiablePose, Pose};
-pub use projection::{Camera, CameraPointJacobians, ProjectionJacobians};
+pub use projection::{Equidistant, Pinhole, Projection};
 pub use rotation::{
-    AxisAngle, EulerXyz, RotationKind, RotationParameterization, nearest_rotation, skew,
+    AxisAngle, EulerXyz, RotationKind, RotationParameterization, So3, nearest_rotation, skew,
 };
 pub use undistort::{UndistortOptions, undistort_normalized};

@@ -9,12 +9,65 @@ use nalgebra::{Matrix3, Matrix3x6, Point3, Vector3, Vector6};
 /// The camera frame is OpenCV's: `x` right, `y` down, `z` forward along the optical axis, so points
 /// in front of the camera have positive `z`. `translation` is the world origin expressed in the
 /// camera frame, in the world's length unit.
+///
+/// In files (serde) a pose is `{"rotation_matrix": [[...], [...], [...]], "rotation_vector":
+/// [...], "euler_xyz": [...], "translation": [...]}` (rows of `R`; the rotation vector and Euler
+/// X-Y-Z angles are for readers); reading takes `rotation_matrix` (projected onto the rotations)
+/// or, if absent, `rotation_vector`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
     /// Rotation matrix `R` (world to camera).
     pub rotation: Matrix3<f64>,
     /// Translation `t` (world origin in camera coordinates).
     pub translation: Vector3<f64>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PoseJson {
+    #[serde(default)]
+    rotation_matrix: Option<[[f64; 3]; 3]>,
+    #[serde(default)]
+    rotation_vector: Option<[f64; 3]>,
+    #[serde(default, skip_deserializing)]
+    euler_xyz: Option<[f64; 3]>,
+    translation: [f64; 3],
+}
+
+impl serde::Serialize for Pose {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use crate::rotation::{AxisAngle, EulerXyz};
+        let r = &self.rotation;
+        let w = AxisAngle::from_matrix(r);
+        let e = EulerXyz::from_matrix(r);
+        PoseJson {
+            rotation_matrix: Some(std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)]))),
+            rotation_vector: Some([w.x, w.y, w.z]),
+            euler_xyz: Some([e.x, e.y, e.z]),
+            translation: [self.translation.x, self.translation.y, self.translation.z],
+        }
+        .serialize(serializer)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Pose {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use crate::rotation::{AxisAngle, nearest_rotation};
+        let j = PoseJson::deserialize(deserializer)?;
+        let rotation = match (j.rotation_matrix, j.rotation_vector) {
+            (Some(m), _) => {
+                nearest_rotation(&Matrix3::from_fn(|i, k| m[i][k])).ok_or_else(|| {
+                    serde::de::Error::custom("rotation_matrix is not close to a rotation")
+                })?
+            }
+            (None, Some(w)) => AxisAngle::matrix(&Vector3::from(w)),
+            (None, None) => {
+                return Err(serde::de::Error::custom(
+                    "a pose needs rotation_matrix or rotation_vector",
+                ));
+            }
+        };
+        Ok(Pose::new(rotation, Vector3::from(j.translation)))
+    }
 }
 
 impl Default for Pose {

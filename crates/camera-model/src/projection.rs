@@ -1,398 +1,249 @@
-//! Projection of world points to distorted pixels, with analytic Jacobians.
+//! Central projections: from a camera-frame point to the projection plane, before distortion.
 //!
-//! The chain for a world point `X` and pose parameters `m = [rho, t]`:
+//! A [`Projection`] maps a point `s` of the camera frame to a 2-D point `m` on which the lens
+//! distortion then acts; intrinsics turn the distorted point into pixels (see [`crate::Camera`]).
+//! Two projections are implemented:
 //!
-//! ```text
-//! s = R(rho) X + t                      camera frame
-//! n = (s_x / s_z, s_y / s_z)            normalized image plane
-//! d = distortion(n)                     distorted normalized point
-//! p = (fx d_x + cx, fy d_y + cy)        pixel (OpenCV convention)
-//! ```
+//! | projection | `m` | valid for |
+//! |---|---|---|
+//! | [`Pinhole`] | `(x/z, y/z)` | points in front of the camera, `z > 0` |
+//! | [`Equidistant`] | `theta (x, y) / r`, `r = |(x, y)|`, `theta = atan2(r, z)` | every direction except straight back (`theta < pi`) |
 //!
-//! so `dp/dm = diag(fx, fy) * dd/dn * dn/ds * ds/dm`. Derivations: `docs/camera-model.md`.
+//! The equidistant projection is the base of fisheye models (Kannala-Brandt, OpenCV's
+//! `cv2.fisheye`): the length of `m` is the angle `theta` between the ray and the optical axis, so
+//! fields of view of 180 degrees and more are representable, where `x/z` is not. Computing
+//! `theta` from the 3-D direction with `atan2` (not `atan(r/z)`) keeps points at and beyond 90
+//! degrees off-axis valid.
+//!
+//! Derivations of the Jacobians: `docs/camera-model.md`, section "Projections".
 
-use crate::distortion::{LensDistortion, ParamJacobian};
 use crate::error::CameraModelError;
-use crate::intrinsics::Intrinsics;
-use crate::pose::{DifferentiablePose, Pose};
-use nalgebra::{Matrix2, Matrix2x3, Matrix2x4, Matrix2x6, Point3, Vector2, Vector3};
+use nalgebra::{Matrix2x3, Unit, Vector2, Vector3};
 
-/// A pinhole camera with lens distortion model `D`.
-///
-/// The intrinsic parameter vector used by the calibration is `[fx, fy, cx, cy, distortion...]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Camera<D> {
-    /// Focal lengths and principal point (pixels).
-    pub intrinsics: Intrinsics,
-    /// Lens distortion (normalized coordinates).
-    pub distortion: D,
+/// A central projection from the camera frame to the projection plane (no parameters).
+pub trait Projection: Copy + Clone + Send + Sync + std::fmt::Debug + PartialEq + 'static {
+    /// A short name for reports and files ("pinhole", "equidistant").
+    const NAME: &'static str;
+
+    /// The projection-plane point of camera-frame point `s`, or why `s` has none (behind a
+    /// pinhole camera, on the negative optical axis of a fisheye, not finite).
+    fn project(s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError>;
+
+    /// `project(s)` and its Jacobian `dm/ds` (2x3). Must give the same `m` bits as `project`.
+    fn project_with_jacobian(
+        s: &Vector3<f64>,
+    ) -> Result<(Vector2<f64>, Matrix2x3<f64>), CameraModelError>;
+
+    /// The unit ray (camera frame) whose projection is `m`, or `None` if `m` is the image of no
+    /// direction (beyond the projection's range).
+    fn unproject(m: &Vector2<f64>) -> Option<Unit<Vector3<f64>>>;
 }
 
-/// A projected pixel and the analytic Jacobians of the pixel with respect to every input.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProjectionJacobians<D: LensDistortion> {
-    /// The distorted pixel `(u, v)`.
-    pub pixel: Vector2<f64>,
-    /// `dp / d[fx, fy, cx, cy]` (2x4).
-    pub d_intrinsics: Matrix2x4<f64>,
-    /// `dp / d(distortion parameters)` (2 x `D::NUM_PARAMS`).
-    pub d_distortion: D::ParamJacobian,
-    /// `dp / d[rho, t]` (2x6), rotation parameters first.
-    pub d_pose: Matrix2x6<f64>,
-    /// `dp / dX` (2x3), with respect to the world point.
-    pub d_point: Matrix2x3<f64>,
-}
-
-/// A projected camera-frame point and its Jacobians.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraPointJacobians<D: LensDistortion> {
-    /// The distorted pixel `(u, v)`.
-    pub pixel: Vector2<f64>,
-    /// `dp / d[fx, fy, cx, cy]` (2x4).
-    pub d_intrinsics: Matrix2x4<f64>,
-    /// `dp / d(distortion parameters)` (2 x `D::NUM_PARAMS`).
-    pub d_distortion: D::ParamJacobian,
-    /// `dp / ds` with respect to the camera-frame point (2x3).
-    pub d_camera_point: Matrix2x3<f64>,
-}
-
-/// `dn/ds` for `n = (s_x/s_z, s_y/s_z)`.
 #[inline]
-fn d_normalized_d_camera(s: &Vector3<f64>) -> (Vector2<f64>, Matrix2x3<f64>) {
-    let inv_z = 1.0 / s.z;
-    let n = Vector2::new(s.x * inv_z, s.y * inv_z);
-    let jac = Matrix2x3::new(inv_z, 0.0, -n.x * inv_z, 0.0, inv_z, -n.y * inv_z);
-    (n, jac)
-}
-
-/// Checks that a camera-frame point can be projected.
-#[inline]
-fn check_depth(s: &Vector3<f64>) -> Result<(), CameraModelError> {
-    if !(s.x.is_finite() && s.y.is_finite() && s.z.is_finite()) {
-        return Err(CameraModelError::NonFinite {
+fn check_finite(s: &Vector3<f64>) -> Result<(), CameraModelError> {
+    if s.x.is_finite() && s.y.is_finite() && s.z.is_finite() {
+        Ok(())
+    } else {
+        Err(CameraModelError::NonFinite {
             what: "camera-frame point",
-        });
+        })
     }
-    // `!(z > 0)` also rejects NaN.
-    if s.z <= 0.0 {
-        return Err(CameraModelError::PointBehindCamera { depth: s.z });
-    }
-    Ok(())
 }
 
-impl<D: LensDistortion> Camera<D> {
-    /// A camera from intrinsics and a distortion model.
-    pub fn new(intrinsics: Intrinsics, distortion: D) -> Self {
-        Self {
-            intrinsics,
-            distortion,
-        }
-    }
+/// The pinhole projection `m = (x/z, y/z)` of the calibration text, defined for `z > 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Pinhole;
 
-    /// Length of the intrinsic parameter vector: `4 + D::NUM_PARAMS`.
-    pub const NUM_PARAMS: usize = 4 + D::NUM_PARAMS;
+impl Projection for Pinhole {
+    const NAME: &'static str = "pinhole";
 
-    /// Writes the intrinsic parameter vector `[fx, fy, cx, cy, distortion...]` into
-    /// `out[..Self::NUM_PARAMS]`.
-    pub fn write_params(&self, out: &mut [f64]) {
-        out[..4].copy_from_slice(self.intrinsics.to_vector().as_slice());
-        self.distortion.write_params(&mut out[4..]);
-    }
-
-    /// The camera from the parameter vector `[fx, fy, cx, cy, distortion...]`
-    /// (`params[..Self::NUM_PARAMS]`).
-    pub fn from_params(params: &[f64]) -> Self {
-        let intrinsics = Intrinsics::new(params[0], params[1], params[2], params[3]);
-        Self::new(intrinsics, D::from_params(&params[4..]))
-    }
-
-    /// Pixel of a point given in the camera frame.
-    ///
-    /// Errors if the point is not strictly in front of the camera or is not finite.
     #[inline]
-    pub fn project_camera_point(&self, s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
-        check_depth(s)?;
-        // Same arithmetic as `project_with_jacobians`, so both give identical bits.
+    fn project(s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
+        check_finite(s)?;
+        // `!(z > 0)` also rejects NaN.
+        if s.z <= 0.0 {
+            return Err(CameraModelError::PointBehindCamera { depth: s.z });
+        }
+        let inv_z = 1.0 / s.z;
+        Ok(Vector2::new(s.x * inv_z, s.y * inv_z))
+    }
+
+    #[inline]
+    fn project_with_jacobian(
+        s: &Vector3<f64>,
+    ) -> Result<(Vector2<f64>, Matrix2x3<f64>), CameraModelError> {
+        check_finite(s)?;
+        if s.z <= 0.0 {
+            return Err(CameraModelError::PointBehindCamera { depth: s.z });
+        }
         let inv_z = 1.0 / s.z;
         let n = Vector2::new(s.x * inv_z, s.y * inv_z);
-        Ok(self.intrinsics.to_pixel(&self.distortion.distort(&n)))
+        let jac = Matrix2x3::new(inv_z, 0.0, -n.x * inv_z, 0.0, inv_z, -n.y * inv_z);
+        Ok((n, jac))
     }
 
-    /// Pixel of a world point seen from `pose` (world to camera).
+    fn unproject(m: &Vector2<f64>) -> Option<Unit<Vector3<f64>>> {
+        (m.x.is_finite() && m.y.is_finite())
+            .then(|| Unit::new_normalize(Vector3::new(m.x, m.y, 1.0)))
+    }
+}
+
+/// The equidistant projection `m = theta (x, y) / r` with `r = sqrt(x^2 + y^2)` and
+/// `theta = atan2(r, z)`: `|m|` is the angle (radians) between the ray and the optical axis.
+/// Defined for every direction except the negative optical axis (`theta = pi`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Equidistant;
+
+/// Below this `r^2 / z^2` the equidistant factors use their Taylor series (see
+/// `Equidistant::factors`).
+const EQUIDISTANT_SERIES: f64 = 1e-6;
+
+impl Equidistant {
+    /// `a = theta / r` and `b = (da/dr) / r`, finite at the optical axis (series for
+    /// `r / z < 1e-3`, where the closed forms are 0/0: `a = 1/z - r^2/(3 z^3) + r^4/(5 z^5)`,
+    /// `b = -2/(3 z^3) + 4 r^2/(5 z^5)`, truncation below 1e-12 relative).
     #[inline]
-    pub fn project(
-        &self,
-        pose: &Pose,
-        point: &Point3<f64>,
-    ) -> Result<Vector2<f64>, CameraModelError> {
-        self.project_camera_point(&pose.transform_point(point))
+    fn factors(s: &Vector3<f64>) -> Result<(f64, f64, f64), CameraModelError> {
+        check_finite(s)?;
+        let r2 = s.x * s.x + s.y * s.y;
+        let z = s.z;
+        let rho2 = r2 + z * z;
+        if z > 0.0 && r2 < EQUIDISTANT_SERIES * z * z {
+            let iz = 1.0 / z;
+            let iz3 = iz * iz * iz;
+            let a = iz - r2 * iz3 / 3.0 + r2 * r2 * iz3 * iz * iz / 5.0;
+            let b = -2.0 * iz3 / 3.0 + 4.0 * r2 * iz3 * iz * iz / 5.0;
+            return Ok((a, b, rho2));
+        }
+        if r2 == 0.0 {
+            // On the optical axis behind the camera (or at the centre): no direction.
+            return Err(CameraModelError::PointBehindCamera { depth: z });
+        }
+        let r = r2.sqrt();
+        let theta = r.atan2(z);
+        let a = theta / r;
+        let b = (z * r / rho2 - theta) / (r * r2);
+        Ok((a, b, rho2))
+    }
+}
+
+impl Projection for Equidistant {
+    const NAME: &'static str = "equidistant";
+
+    #[inline]
+    fn project(s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
+        let (a, _, _) = Self::factors(s)?;
+        Ok(Vector2::new(a * s.x, a * s.y))
     }
 
-    /// Pixel of a camera-frame point and its Jacobians with respect to the intrinsics, the
-    /// distortion parameters and the camera-frame point itself (`dp/ds`, 2x3). This is the part
-    /// of the projection after the pose; chain `dp/ds` with any pose model (a stereo rig, say).
     #[inline]
-    pub fn project_camera_point_with_jacobians(
-        &self,
+    fn project_with_jacobian(
         s: &Vector3<f64>,
-    ) -> Result<CameraPointJacobians<D>, CameraModelError> {
-        check_depth(s)?;
-        let (n, dn_ds) = d_normalized_d_camera(s);
-        let (d, dd_dn, dd_dk) = self.distortion.distort_with_jacobians(&n);
-        let Intrinsics { fx, fy, cx, cy } = self.intrinsics;
-        let scale = Matrix2::new(fx, 0.0, 0.0, fy);
-        Ok(CameraPointJacobians {
-            pixel: Vector2::new(fx * d.x + cx, fy * d.y + cy),
-            d_intrinsics: Matrix2x4::new(d.x, 0.0, 1.0, 0.0, 0.0, d.y, 0.0, 1.0),
-            d_distortion: dd_dk.scale_rows(fx, fy),
-            d_camera_point: scale * dd_dn * dn_ds,
-        })
+    ) -> Result<(Vector2<f64>, Matrix2x3<f64>), CameraModelError> {
+        let (a, b, rho2) = Self::factors(s)?;
+        let (x, y) = (s.x, s.y);
+        let bxy = b * x * y;
+        let jac = Matrix2x3::new(a + b * x * x, bxy, -x / rho2, bxy, a + b * y * y, -y / rho2);
+        Ok((Vector2::new(a * x, a * y), jac))
     }
 
-    /// Pixel of a world point and its Jacobians with respect to the intrinsics, the distortion
-    /// parameters, the pose parameters (in the parameterization `pose` was prepared with) and the
-    /// world point. Allocation-free.
-    #[inline]
-    pub fn project_with_jacobians(
-        &self,
-        pose: &DifferentiablePose,
-        point: &Point3<f64>,
-    ) -> Result<ProjectionJacobians<D>, CameraModelError> {
-        let (s, ds_dm) = pose.transform_with_jacobian(point);
-        let j = self.project_camera_point_with_jacobians(&s)?;
-        Ok(ProjectionJacobians {
-            pixel: j.pixel,
-            d_intrinsics: j.d_intrinsics,
-            d_distortion: j.d_distortion,
-            d_pose: j.d_camera_point * ds_dm,
-            d_point: j.d_camera_point * pose.rotation,
-        })
+    fn unproject(m: &Vector2<f64>) -> Option<Unit<Vector3<f64>>> {
+        let theta = m.norm();
+        if !theta.is_finite() || theta >= std::f64::consts::PI {
+            return None;
+        }
+        if theta == 0.0 {
+            return Some(Vector3::z_axis());
+        }
+        let (s, c) = theta.sin_cos();
+        Some(Unit::new_normalize(Vector3::new(
+            m.x / theta * s,
+            m.y / theta * s,
+            c,
+        )))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::distortion::BrownConrady;
-    use crate::rotation::{AxisAngle, EulerXyz, RotationParameterization};
     use lm_solver::numdiff::{central_difference, compare_jacobians};
-    use nalgebra::{SMatrix, Vector6};
     use proptest::prelude::*;
 
-    /// Random intrinsics and distortion in the ranges real lenses and sensors have.
-    fn camera_strategy() -> impl Strategy<Value = Camera<BrownConrady>> {
-        (
-            200.0f64..2000.0,
-            0.8f64..1.25,
-            200.0f64..1000.0,
-            150.0f64..800.0,
-            (-0.5f64..0.5, -0.5f64..0.5, -0.01f64..0.01, -0.01f64..0.01),
-        )
-            .prop_map(|(fx, aspect, cx, cy, (k1, k2, p1, p2))| {
-                Camera::new(
-                    Intrinsics::new(fx, fx * aspect, cx, cy),
-                    BrownConrady::new(k1, k2, p1, p2),
+    fn check<P: Projection>(s: Vector3<f64>) -> Result<(), TestCaseError> {
+        let (m, jac) = P::project_with_jacobian(&s).unwrap();
+        prop_assert_eq!(m, P::project(&s).unwrap());
+        let numeric = central_difference(
+            |v: &[f64], out: &mut [f64]| {
+                out.copy_from_slice(
+                    P::project(&Vector3::new(v[0], v[1], v[2]))
+                        .unwrap()
+                        .as_slice(),
                 )
-            })
-    }
-
-    /// A pose looking at a board near the origin from 0.3..3 units away, tilted up to ~60 degrees,
-    /// and a point on or near the board: the point is always well in front of the camera.
-    fn pose_and_point<P: RotationParameterization>()
-    -> impl Strategy<Value = (Vector6<f64>, Point3<f64>)> {
-        (
-            (-1.0f64..1.0, -1.0f64..1.0, -3.1f64..3.1),
-            (-0.3f64..0.3, -0.3f64..0.3, 0.3f64..3.0),
-            (-0.2f64..0.2, -0.2f64..0.2, -0.05f64..0.05),
-            prop::bool::ANY,
-        )
-            .prop_map(|((ax, ay, az), (tx, ty, tz), (x, y, z), flip)| {
-                // Flipping about X makes the board's Z axis point away from the camera, the usual
-                // situation for boards; the other case is exercised too.
-                let base = if flip { std::f64::consts::PI } else { 0.0 };
-                let r = EulerXyz::matrix(&Vector3::new(base + ax, ay, az));
-                let rho = P::from_matrix(&r);
-                let params = Vector6::new(rho.x, rho.y, rho.z, tx, ty, tz);
-                (params, Point3::new(x, y, z))
-            })
-            .prop_filter("point in front of the camera", |(params, p)| {
-                Pose::from_params::<EulerXyz>(params).transform_point(p).z > 0.2
-                    || Pose::from_params::<AxisAngle>(params).transform_point(p).z > 0.2
-            })
-    }
-
-    fn check_all_jacobians<P: RotationParameterization>(
-        camera: Camera<BrownConrady>,
-        pose: Vector6<f64>,
-        point: Point3<f64>,
-    ) -> Result<(), TestCaseError> {
-        let prepared = DifferentiablePose::new::<P>(&pose);
-        if prepared.pose().transform_point(&point).z <= 0.2 {
-            return Ok(());
-        }
-        let j = camera.project_with_jacobians(&prepared, &point).unwrap();
-        let plain = camera.project(&prepared.pose(), &point).unwrap();
-        // The two paths use the same arithmetic: the solver compares costs from both.
-        prop_assert_eq!(j.pixel, plain);
-
-        // Central-difference error bound: rounding eps |f| / h plus truncation h^2 |f'''| / 6, with
-        // h = 1e-6 max(|x|, 1). Pixels stay below 5e3, so rounding is at most 1.1e-16 * 5e3 / 1e-6
-        // = 6e-7 px per unit of a parameter of order one (less for fx, whose step is larger).
-        // Truncation is largest for the depth: |d^3 u / dz^3| ~ 6 fx |x| / z^4 < 1e7 for z > 0.2,
-        // and h^2 / 6 times that is below 2e-6 px. The tolerance 1e-5 (|numeric| + 1) px per unit
-        // is therefore several times the worst-case noise, while a wrong or missing term (a
-        // relative error of order one in some entry) is far above it.
-        const REL: f64 = 1e-5;
-        const FLOOR: f64 = 1.0;
-        let project = |c: &Camera<BrownConrady>, m: &Vector6<f64>, x: &Point3<f64>| {
-            c.project(&Pose::from_params::<P>(m), x).unwrap()
-        };
-
-        let mut intr = [0.0; 8];
-        camera.write_params(&mut intr);
-        let numeric = central_difference(
-            |p: &[f64], out: &mut [f64]| {
-                out.copy_from_slice(project(&Camera::from_params(p), &pose, &point).as_slice())
             },
-            &intr,
+            s.as_slice(),
             2,
             1e-6,
         );
-        let mut analytic = Vec::from(j.d_intrinsics.as_slice());
-        analytic.extend_from_slice(ParamJacobian::as_slice(&j.d_distortion));
-        let r = compare_jacobians(&analytic, &numeric, 2, REL, FLOOR);
-        prop_assert!(r.is_ok(), "intrinsics/distortion: {:?}", r);
-
-        let numeric = central_difference(
-            |m: &[f64], out: &mut [f64]| {
-                let m = Vector6::from_column_slice(m);
-                out.copy_from_slice(project(&camera, &m, &point).as_slice())
-            },
-            pose.as_slice(),
-            2,
-            1e-6,
-        );
-        let r = compare_jacobians(j.d_pose.as_slice(), &numeric, 2, REL, FLOOR);
-        prop_assert!(r.is_ok(), "pose: {:?}", r);
-
-        let numeric = central_difference(
-            |x: &[f64], out: &mut [f64]| {
-                let x = Point3::new(x[0], x[1], x[2]);
-                out.copy_from_slice(project(&camera, &pose, &x).as_slice())
-            },
-            point.coords.as_slice(),
-            2,
-            1e-6,
-        );
-        let r = compare_jacobians(j.d_point.as_slice(), &numeric, 2, REL, FLOOR);
-        prop_assert!(r.is_ok(), "point: {:?}", r);
+        // |m| <= pi and the second derivatives are O(1 / |s|^2) for |s| >= 0.5, so with
+        // h = 1e-6 max(|s_i|, 1) the rounding (eps |m| / h ~ 4e-10) and truncation (h^2 / 6 |f'''|
+        // < 1e-11) errors stay far below 1e-7 (|J| + 1e-3).
+        let r = compare_jacobians(jac.as_slice(), &numeric, 2, 1e-7, 1e-3);
+        prop_assert!(r.is_ok(), "{:?} at {s}", r);
+        // Unprojection returns the direction of s.
+        let ray = P::unproject(&m).unwrap();
+        prop_assert!((ray.into_inner() - s.normalize()).norm() < 1e-12);
         Ok(())
     }
 
     proptest! {
         #[test]
-        fn jacobians_match_finite_differences_euler(
-            camera in camera_strategy(), (pose, point) in pose_and_point::<EulerXyz>()
+        fn pinhole_jacobian_matches_finite_differences(
+            x in -2.0f64..2.0, y in -2.0f64..2.0, z in 0.5f64..3.0
         ) {
-            check_all_jacobians::<EulerXyz>(camera, pose, point)?;
+            check::<Pinhole>(Vector3::new(x, y, z))?;
         }
 
+        /// Directions from the optical axis to 170 degrees off-axis (beyond 90: behind the
+        /// image plane), at distances 0.5 to 3.
         #[test]
-        fn jacobians_match_finite_differences_axis_angle(
-            camera in camera_strategy(), (pose, point) in pose_and_point::<AxisAngle>()
+        fn equidistant_jacobian_matches_finite_differences(
+            theta in 0.0f64..170f64.to_radians(), phi in -3.2f64..3.2, dist in 0.5f64..3.0
         ) {
-            check_all_jacobians::<AxisAngle>(camera, pose, point)?;
+            let s = dist * Vector3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            check::<Equidistant>(s)?;
+            let m = Equidistant::project(&s).unwrap();
+            prop_assert!((m.norm() - theta).abs() < 1e-12);
         }
     }
 
-    /// The pose Jacobian computed literally as in the specification, `dp_n/d[R|t] * d[R|t]/dm`
-    /// with the 2x9 and 9x6 matrices for a planar point, equals the contracted form.
     #[test]
-    fn pose_jacobian_equals_the_specification_chain() {
-        let params = Vector6::new(2.9, 0.3, -0.4, 0.05, -0.02, 0.8);
-        let point = Point3::new(0.12, 0.07, 0.0);
-        let prepared = DifferentiablePose::new::<EulerXyz>(&params);
-        let camera = Camera::new(Intrinsics::new(1.0, 1.0, 0.0, 0.0), BrownConrady::default());
-        let j = camera.project_with_jacobians(&prepared, &point).unwrap();
-
-        let s = prepared.pose().transform_point(&point);
-        let (xw, yw) = (point.x, point.y);
-        // Columns: R11 R21 R31 R12 R22 R32 tx ty tz.
-        let dpn_drt = SMatrix::<f64, 2, 9>::from_row_slice(&[
-            xw / s.z,
-            0.0,
-            -s.x * xw / (s.z * s.z),
-            yw / s.z,
-            0.0,
-            -s.x * yw / (s.z * s.z),
-            1.0 / s.z,
-            0.0,
-            -s.x / (s.z * s.z),
-            0.0,
-            xw / s.z,
-            -s.y * xw / (s.z * s.z),
-            0.0,
-            yw / s.z,
-            -s.y * yw / (s.z * s.z),
-            0.0,
-            1.0 / s.z,
-            -s.y / (s.z * s.z),
-        ]);
-        let mut drt_dm = SMatrix::<f64, 9, 6>::zeros();
-        for k in 0..3 {
-            let d = prepared.rotation_derivatives[k];
-            // First two columns of dR/dtheta_k, column-major.
-            for (row, (i, c)) in [(0, 0), (1, 0), (2, 0), (0, 1), (1, 1), (2, 1)]
-                .into_iter()
-                .enumerate()
-            {
-                drt_dm[(row, k)] = d[(i, c)];
-            }
-            drt_dm[(6 + k, 3 + k)] = 1.0;
+    fn equidistant_is_smooth_across_the_series_boundary() {
+        // Just inside and outside r/z = 1e-3 the two forms agree to rounding.
+        for r in [0.999e-3, 1.001e-3, 0.0, 1e-9] {
+            let s = Vector3::new(r, 0.3 * r, 1.0);
+            let (m, j) = Equidistant::project_with_jacobian(&s).unwrap();
+            let theta = (s.x.hypot(s.y)).atan2(s.z);
+            assert!((m.norm() - theta).abs() < 1e-18 + 1e-15 * theta);
+            assert!((j[(0, 0)] - 1.0).abs() < 1e-5 && j[(0, 2)].abs() < 2e-3);
         }
-        let chain = dpn_drt * drt_dm;
-        approx::assert_relative_eq!(chain, j.d_pose, epsilon = 1e-12);
     }
 
     #[test]
-    fn points_behind_or_on_the_camera_plane_are_errors() {
-        let camera = Camera::new(
-            Intrinsics::new(500.0, 500.0, 320.0, 240.0),
-            BrownConrady::default(),
-        );
-        for z in [0.0, -1.0] {
-            let err = camera
-                .project_camera_point(&Vector3::new(0.1, 0.2, z))
-                .unwrap_err();
-            assert_eq!(err, CameraModelError::PointBehindCamera { depth: z });
-        }
+    fn invalid_points_are_errors() {
         assert!(matches!(
-            camera.project_camera_point(&Vector3::new(f64::NAN, 0.0, 1.0)),
+            Pinhole::project(&Vector3::new(0.1, 0.2, 0.0)),
+            Err(CameraModelError::PointBehindCamera { .. })
+        ));
+        assert!(Equidistant::project(&Vector3::new(0.1, 0.2, -1.0)).is_ok());
+        assert!(matches!(
+            Equidistant::project(&Vector3::new(0.0, 0.0, -1.0)),
+            Err(CameraModelError::PointBehindCamera { .. })
+        ));
+        assert!(matches!(
+            Equidistant::project(&Vector3::new(f64::NAN, 0.0, 1.0)),
             Err(CameraModelError::NonFinite { .. })
         ));
-        let pose =
-            DifferentiablePose::new::<EulerXyz>(&Vector6::new(0.0, 0.0, 0.0, 0.0, 0.0, -1.0));
-        assert!(
-            camera
-                .project_with_jacobians(&pose, &Point3::origin())
-                .is_err()
-        );
-    }
-
-    #[test]
-    fn principal_point_is_the_image_of_the_optical_axis() {
-        let camera = Camera::new(
-            Intrinsics::new(500.0, 510.0, 319.5, 239.5),
-            BrownConrady::new(0.2, -0.1, 0.01, 0.01),
-        );
-        let p = camera
-            .project_camera_point(&Vector3::new(0.0, 0.0, 2.0))
-            .unwrap();
-        assert_eq!(p, Vector2::new(319.5, 239.5));
-        // A point right of and below the axis lands right of and below the principal point.
-        let p = camera
-            .project_camera_point(&Vector3::new(0.1, 0.1, 1.0))
-            .unwrap();
-        assert!(p.x > 319.5 && p.y > 239.5);
+        assert!(Equidistant::unproject(&Vector2::new(3.2, 0.0)).is_none());
     }
 }

@@ -36,6 +36,8 @@ pub enum RotationKind {
     EulerXyz,
     /// [`AxisAngle`]: rotation vector (axis times angle in radians), as OpenCV's `rvec`.
     AxisAngle,
+    /// [`So3`]: rotation vectors updated on the rotation manifold (body-frame increments).
+    So3,
 }
 
 impl RotationKind {
@@ -43,7 +45,7 @@ impl RotationKind {
     pub fn matrix(self, p: &Vector3<f64>) -> Matrix3<f64> {
         match self {
             RotationKind::EulerXyz => EulerXyz::matrix(p),
-            RotationKind::AxisAngle => AxisAngle::matrix(p),
+            RotationKind::AxisAngle | RotationKind::So3 => AxisAngle::matrix(p),
         }
     }
 
@@ -51,7 +53,7 @@ impl RotationKind {
     pub fn from_matrix(self, r: &Matrix3<f64>) -> Vector3<f64> {
         match self {
             RotationKind::EulerXyz => EulerXyz::from_matrix(r),
-            RotationKind::AxisAngle => AxisAngle::from_matrix(r),
+            RotationKind::AxisAngle | RotationKind::So3 => AxisAngle::from_matrix(r),
         }
     }
 
@@ -60,7 +62,14 @@ impl RotationKind {
         match self {
             RotationKind::EulerXyz => EulerXyz::NAME,
             RotationKind::AxisAngle => AxisAngle::NAME,
+            RotationKind::So3 => So3::NAME,
         }
+    }
+
+    /// True if the solver must update rotation blocks on the manifold (`lm_solver::manifold::
+    /// RotationVector`) rather than additively.
+    pub fn needs_manifold(self) -> bool {
+        self == RotationKind::So3
     }
 }
 
@@ -153,6 +162,41 @@ impl RotationParameterization for EulerXyz {
             // theta_y = -pi/2: R12 = -sin(theta_x + theta_z), R22 = cos(theta_x + theta_z).
             Vector3::new((-r[(0, 1)]).atan2(r[(1, 1)]), theta_y, 0.0)
         }
+    }
+}
+
+/// Rotations stored as rotation vectors (like [`AxisAngle`]) but differentiated on the rotation
+/// manifold: the three parameters the solver sees are a body-frame increment `delta` at zero,
+/// `R(w ⊞ delta) = R(w) exp([delta]x)`, so the "derivatives" are `dR/d delta_k = R [e_k]x` at any
+/// rotation: no singularity anywhere, unlike Euler angles at `theta_y = pi/2` and additive
+/// rotation vectors at `|w| = pi`.
+///
+/// Only meaningful with a solver that applies the update `w ⊞ delta = log(exp(w) exp(delta))`
+/// (`lm_solver::manifold::RotationVector`), which calibration sets up for this kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct So3;
+
+impl RotationParameterization for So3 {
+    const NAME: &'static str = "so3";
+
+    #[inline]
+    fn matrix(p: &Vector3<f64>) -> Matrix3<f64> {
+        AxisAngle::matrix(p)
+    }
+
+    #[inline]
+    fn matrix_and_derivatives(p: &Vector3<f64>) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
+        let r = AxisAngle::matrix(p);
+        let d = [
+            r * skew(&Vector3::x()),
+            r * skew(&Vector3::y()),
+            r * skew(&Vector3::z()),
+        ];
+        (r, d)
+    }
+
+    fn from_matrix(r: &Matrix3<f64>) -> Vector3<f64> {
+        AxisAngle::from_matrix(r)
     }
 }
 

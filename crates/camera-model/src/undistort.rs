@@ -6,9 +6,10 @@
 //! the solution, so a handful of iterations reach the rounding level, far below the fixed-point
 //! iteration OpenCV uses by default.
 
+use crate::camera::Camera;
 use crate::distortion::LensDistortion;
 use crate::error::CameraModelError;
-use crate::projection::Camera;
+use crate::projection::Projection;
 use nalgebra::{Unit, Vector2, Vector3};
 
 /// Settings of the iterative undistortion.
@@ -101,8 +102,9 @@ pub fn undistort_normalized<D: LensDistortion>(
     }
 }
 
-impl<D: LensDistortion> Camera<D> {
-    /// The ideal (undistorted) normalized image point `(x/z, y/z)` seen at `pixel`.
+impl<D: LensDistortion, P: Projection> Camera<D, P> {
+    /// The undistorted projection-plane point seen at `pixel`: `(x/z, y/z)` for a pinhole
+    /// camera, `theta (x, y) / r` for an equidistant (fisheye) one.
     pub fn undistort_pixel(
         &self,
         pixel: &Vector2<f64>,
@@ -121,14 +123,15 @@ impl<D: LensDistortion> Camera<D> {
         undistort_normalized(&self.distortion, &distorted, options)
     }
 
-    /// The unit-length viewing ray (camera frame, `z > 0`) through `pixel`.
+    /// The unit-length viewing ray (camera frame) through `pixel`: `z > 0` for a pinhole camera;
+    /// a fisheye ray can point sideways or backwards.
     pub fn pixel_to_ray(
         &self,
         pixel: &Vector2<f64>,
         options: &UndistortOptions,
     ) -> Result<Unit<Vector3<f64>>, CameraModelError> {
         let n = self.undistort_pixel(pixel, options)?;
-        Ok(Unit::new_normalize(Vector3::new(n.x, n.y, 1.0)))
+        P::unproject(&n).ok_or(CameraModelError::OutsideProjection)
     }
 }
 
