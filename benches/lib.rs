@@ -10,10 +10,10 @@
 //! * [`single_thread_options`], [`single_thread_solver_options`]: everything on one thread.
 //! * [`windowed_bearing_adjustment`]: a bundle-adjustment problem with sparse visibility.
 
-use calib_single::cost::ReprojectionCost;
+use calib_core::{JointCost, JointProblem, View};
 use calib_single::synthetic::{SyntheticConfig, SyntheticSet, generate};
 use calib_single::{CalibrationOptions, Observations, default_solver_options};
-use camera_model::{BrownConrady, EulerXyz};
+use camera_model::EulerXyz;
 use lm_solver::test_problems::BearingAdjustment;
 use lm_solver::{Problem, Solver, SolverOptions};
 
@@ -56,20 +56,22 @@ pub fn single_thread_solver_options() -> SolverOptions {
 
 /// `CalibrationOptions::default()` on one thread.
 pub fn single_thread_options() -> CalibrationOptions {
-    CalibrationOptions {
-        solver: single_thread_solver_options(),
-        ..Default::default()
+    {
+        let mut o = CalibrationOptions::default();
+        o.solver = single_thread_solver_options();
+        o
     }
 }
 
 /// The single-camera Levenberg-Marquardt problem exactly as `calib_single::calibrate` builds it
 /// with default options (Brown-Conrady `k1, k2, p1, p2`, Euler X-Y-Z poses), with its closed-form
-/// start: a thin wrapper around `calib_single::CalibrationProblem`, so the solver core can be timed
-/// without the rest of the pipeline.
+/// start: the engine's single-camera [`JointProblem`] and the solver problem and start vector
+/// `calib_core::solve` builds from it, so the solver core can be timed without the rest of the
+/// pipeline.
 #[derive(Debug, Clone)]
 pub struct CalibrationProblem {
-    /// The library's prepared calibration.
-    pub prepared: calib_single::CalibrationProblem<BrownConrady>,
+    /// The engine's problem description (one camera, one frame per view).
+    pub joint: JointProblem,
     /// Camera block, then one eliminated pose block per view with one residual block each.
     pub problem: Problem,
     /// The closed-form start (homographies, Bouguet focal length, poses from `K^-1 H`).
@@ -81,22 +83,27 @@ pub struct CalibrationProblem {
 impl CalibrationProblem {
     /// Builds the problem and its start from observations (all views must be usable).
     pub fn new(observations: &Observations) -> Self {
-        let prepared = calib_single::CalibrationProblem::<BrownConrady>::new(
-            observations,
-            &single_thread_options(),
+        let views: Vec<(usize, &View)> = observations.views.iter().enumerate().collect();
+        let prepared =
+            calib_core::prepare_camera(&views, observations.image_size, &single_thread_options())
+                .expect("valid calibration problem");
+        let joint = prepared.problem("camera");
+        let (problem, start) = calib_core::solve::solver_problem::<EulerXyz>(
+            &joint,
+            &calib_core::SolveOptions::default(),
         )
-        .expect("valid calibration problem");
+        .expect("valid solver problem");
         Self {
-            problem: prepared.problem.clone(),
-            start: prepared.start::<EulerXyz>(),
             num_points: prepared.num_points(),
-            prepared,
+            joint,
+            problem,
+            start,
         }
     }
 
     /// The reprojection cost over these views.
-    pub fn cost(&self) -> ReprojectionCost<'_, BrownConrady, EulerXyz> {
-        self.prepared.cost::<EulerXyz>()
+    pub fn cost(&self) -> JointCost<'_, EulerXyz> {
+        JointCost::new(&self.joint)
     }
 
     /// A solver prepared for this problem.

@@ -19,9 +19,10 @@ const PAIRS: [usize; 3] = [10, 100, 1000];
 const BOARDS: [(usize, usize); 2] = [BOARD_9X6, BOARD_20X20];
 
 fn bench_set(c: &mut Criterion, label: &str, observations: &StereoObservations) {
-    let options = StereoOptions {
-        solver: single_thread_solver_options(),
-        ..Default::default()
+    let options = {
+        let mut o = StereoOptions::default();
+        o.solver = single_thread_solver_options();
+        o
     };
     let points: usize = observations
         .pairs

@@ -34,7 +34,7 @@ pub trait Report {
     fn to_json(&self) -> Value;
 }
 
-impl<D: camera_model::LensDistortion> Report for calib_single::Calibration<D> {
+impl Report for calib_single::Calibration {
     fn elapsed_mut(&mut self) -> &mut Duration {
         &mut self.elapsed
     }
@@ -49,7 +49,7 @@ impl<D: camera_model::LensDistortion> Report for calib_single::Calibration<D> {
     }
 }
 
-impl<D: camera_model::LensDistortion> Report for calib_stereo::StereoCalibration<D> {
+impl Report for calib_stereo::StereoCalibration {
     fn elapsed_mut(&mut self) -> &mut Duration {
         &mut self.elapsed
     }

@@ -3,13 +3,18 @@
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::{Failure, parse_list};
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
-use camera_model::{BrownConrady, Intrinsics, LensDistortion, RotationKind};
+use camera_model::{CameraModel, Intrinsics, RotationKind};
 use clap::{Args, ValueEnum};
 use lm_solver::DampingPolicy;
 
 /// Options shared by the single and stereo commands.
 #[derive(Args, Debug, Clone)]
 pub struct CameraArgs {
+    /// Lens model: brown-conrady4 (k1 k2 p1 p2), brown-conrady5 (+k3, OpenCV's default),
+    /// rational8, thin-prism12, kannala-brandt4 (fisheye). Also accepted: plumb_bob,
+    /// rational_polynomial, equidistant.
+    #[arg(long, default_value = "brown-conrady4", value_name = "MODEL")]
+    pub model: String,
     /// Hold the principal point at the image centre (or at --guess).
     #[arg(long)]
     pub fix_principal_point: bool,
@@ -25,8 +30,8 @@ pub struct CameraArgs {
     /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub guess: Option<String>,
-    /// Initial distortion coefficients k1,k2,p1,p2 (default zero).
-    #[arg(long, value_name = "K1,K2,P1,P2")]
+    /// Initial distortion coefficients in the model's order, e.g. k1,k2,p1,p2 (default zero).
+    #[arg(long, value_name = "K1,K2,...")]
     pub distortion_guess: Option<String>,
     /// Rotation parameterization of the poses during the optimization.
     #[arg(long, value_enum, default_value_t = Rotation::Euler)]
@@ -54,6 +59,8 @@ pub enum Rotation {
     Euler,
     /// Rotation vector (Rodrigues).
     AxisAngle,
+    /// Rotation vector updated on the rotation manifold (no singular rotation).
+    So3,
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy)]
@@ -75,41 +82,45 @@ pub enum Damping {
 impl CameraArgs {
     /// The library options these arguments describe.
     pub fn options(&self) -> Result<CalibrationOptions, Failure> {
-        let mut options = CalibrationOptions {
-            fix_principal_point: self.fix_principal_point,
-            fix_aspect_ratio: self.fix_aspect_ratio,
-            zero_tangential_distortion: self.zero_tangential,
-            skip_bad_views: self.skip_bad_views,
-            rotation: match self.rotation {
-                Rotation::Euler => RotationKind::EulerXyz,
-                Rotation::AxisAngle => RotationKind::AxisAngle,
-            },
-            focal_init: match self.focal_init {
-                FocalMethod::Bouguet => FocalInit::Bouguet,
-                FocalMethod::LeastSquares => FocalInit::LeastSquares,
-            },
-            ..Default::default()
+        let model: CameraModel = self
+            .model
+            .parse()
+            .map_err(|e| Failure(format!("--model: {e}")))?;
+        let mut options = CalibrationOptions::default();
+        options.model = model;
+        options.fix_principal_point = self.fix_principal_point;
+        options.fix_aspect_ratio = self.fix_aspect_ratio;
+        options.zero_tangential_distortion = self.zero_tangential;
+        options.skip_bad_views = self.skip_bad_views;
+        options.rotation = match self.rotation {
+            Rotation::Euler => RotationKind::EulerXyz,
+            Rotation::AxisAngle => RotationKind::AxisAngle,
+            Rotation::So3 => RotationKind::So3,
+        };
+        options.focal_init = match self.focal_init {
+            FocalMethod::Bouguet => FocalInit::Bouguet,
+            FocalMethod::LeastSquares => FocalInit::LeastSquares,
         };
         if let Some(names) = &self.fix {
-            for name in names.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-                let index = BrownConrady::PARAM_NAMES
-                    .iter()
-                    .position(|n| *n == name)
-                    .ok_or_else(|| {
-                        Failure(format!(
-                            "--fix: unknown coefficient '{name}' (expected one of {})",
-                            BrownConrady::PARAM_NAMES.join(", ")
-                        ))
-                    })?;
-                options.fixed_distortion.push(index);
-            }
+            let names: Vec<&str> = names
+                .split(',')
+                .map(str::trim)
+                .filter(|n| !n.is_empty())
+                .collect();
+            options
+                .fix_distortion_by_name(&names)
+                .map_err(|e| Failure(format!("--fix: {e}")))?;
         }
         if let Some(text) = &self.guess {
             let v = parse_list(text, 4, "--guess")?;
             options.intrinsic_guess = Some(Intrinsics::new(v[0], v[1], v[2], v[3]));
         }
         if let Some(text) = &self.distortion_guess {
-            options.distortion_guess = Some(parse_list(text, 4, "--distortion-guess")?);
+            options.distortion_guess = Some(parse_list(
+                text,
+                model.num_distortion_params(),
+                "--distortion-guess",
+            )?);
         }
         options.solver.max_iterations = self.max_iterations;
         options.solver.num_threads = self.threads;

@@ -76,21 +76,21 @@ impl StereoArgs {
             }
             None => None,
         };
-        Ok(StereoOptions {
-            solver: camera.solver.clone(),
-            rotation: camera.rotation,
-            skip_bad_pairs: camera.skip_bad_views,
-            left,
-            right,
-            fix_left_intrinsics: self.fix_left_intrinsics,
-            fix_right_intrinsics: self.fix_right_intrinsics,
-            same_focal_length: self.same_focal_length,
-            rig_guess,
-            rig_init: match self.rig_init {
-                RigMethod::LeastSquares => RigInit::LeastSquares,
-                RigMethod::Median => RigInit::Median,
-            },
-        })
+        let mut options = StereoOptions::default();
+        options.solver = camera.solver.clone();
+        options.rotation = camera.rotation;
+        options.skip_bad_pairs = camera.skip_bad_views;
+        options.left = left;
+        options.right = right;
+        options.fix_left_intrinsics = self.fix_left_intrinsics;
+        options.fix_right_intrinsics = self.fix_right_intrinsics;
+        options.same_focal_length = self.same_focal_length;
+        options.rig_guess = rig_guess;
+        options.rig_init = match self.rig_init {
+            RigMethod::LeastSquares => RigInit::LeastSquares,
+            RigMethod::Median => RigInit::Median,
+        };
+        Ok(options)
     }
 }
 

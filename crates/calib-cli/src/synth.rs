@@ -4,7 +4,7 @@ use crate::{Failure, parse_list, parse_size, write_json};
 use calib_single::ImageSize;
 use calib_single::synthetic::{SyntheticConfig, generate};
 use calib_stereo::synthetic::{SyntheticStereoConfig, generate_stereo};
-use camera_model::{AxisAngle, BrownConrady, Intrinsics, Pose, RotationParameterization};
+use camera_model::{AxisAngle, CameraModel, Intrinsics, Pose, RotationParameterization};
 use clap::{Args, Subcommand};
 use nalgebra::Vector3;
 use serde_json::json;
@@ -25,13 +25,13 @@ pub struct SynthStereoArgs {
     /// True right intrinsics fx,fy,cx,cy (default 810,805,325,235).
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub right_intrinsics: Option<String>,
-    /// True right distortion k1,k2,p1,p2.
-    #[arg(
-        long,
-        value_name = "K1,K2,P1,P2",
-        default_value = "-0.18,0.04,-0.0005,0.0008"
-    )]
-    pub right_distortion: String,
+    /// Lens model of the right camera (default: the left camera's).
+    #[arg(long, value_name = "MODEL")]
+    pub right_model: Option<String>,
+    /// True right distortion in the model's order (default for brown-conrady4:
+    /// -0.18,0.04,-0.0005,0.0008; see --distortion for the other models).
+    #[arg(long, value_name = "K1,K2,...")]
+    pub right_distortion: Option<String>,
     /// Right image size WIDTHxHEIGHT (default: the left one).
     #[arg(long)]
     pub right_image: Option<String>,
@@ -70,13 +70,50 @@ pub struct SynthArgs {
     /// True intrinsics fx,fy,cx,cy (default: 800,800 and the image centre).
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub intrinsics: Option<String>,
-    /// True distortion k1,k2,p1,p2.
-    #[arg(
-        long,
-        value_name = "K1,K2,P1,P2",
-        default_value = "-0.2,0.05,0.001,-0.0005"
-    )]
-    pub distortion: String,
+    /// True lens model (see `calib single --help`).
+    #[arg(long, default_value = "brown-conrady4", value_name = "MODEL")]
+    pub model: String,
+    /// True distortion in the model's order. Defaults: brown-conrady4 -0.2,0.05,0.001,-0.0005;
+    /// brown-conrady5 adds k3 = 0.02; rational8 adds k3..k6 = 0.02,0.1,0.01,0.002; thin-prism12
+    /// adds s1..s4 = 0.001,-0.0005,0.0008,0.0002; kannala-brandt4 0.05,-0.01,0.003,-0.0005.
+    #[arg(long, value_name = "K1,K2,...")]
+    pub distortion: Option<String>,
+}
+
+/// The default true distortion of a model for synthetic data (see `SynthArgs::distortion`).
+pub fn default_distortion(model: CameraModel) -> Vec<f64> {
+    let base = [-0.2, 0.05, 0.001, -0.0005];
+    match model {
+        CameraModel::BrownConrady4 => base.to_vec(),
+        CameraModel::BrownConrady5 => [&base[..], &[0.02]].concat(),
+        CameraModel::Rational8 => [&base[..], &[0.02, 0.1, 0.01, 0.002]].concat(),
+        CameraModel::ThinPrism12 => [
+            &base[..],
+            &[0.02, 0.1, 0.01, 0.002],
+            &[0.001, -0.0005, 0.0008, 0.0002],
+        ]
+        .concat(),
+        CameraModel::KannalaBrandt4 => vec![0.05, -0.01, 0.003, -0.0005],
+    }
+}
+
+fn model_and_distortion(
+    model: &str,
+    distortion: Option<&str>,
+    what: &str,
+) -> Result<(CameraModel, Vec<f64>), Failure> {
+    let model: CameraModel = model
+        .parse()
+        .map_err(|e| Failure(format!("--{what}model: {e}")))?;
+    let d = match distortion {
+        Some(text) => parse_list(
+            text,
+            model.num_distortion_params(),
+            &format!("--{what}distortion"),
+        )?,
+        None => default_distortion(model),
+    };
+    Ok((model, d))
 }
 
 impl SynthArgs {
@@ -93,11 +130,13 @@ impl SynthArgs {
             }
             None => Intrinsics::new(800.0, 800.0, cx, cy),
         };
-        let d = parse_list(&self.distortion, 4, "--distortion")?;
+        let (model, distortion) =
+            model_and_distortion(&self.model, self.distortion.as_deref(), "")?;
         Ok(SyntheticConfig {
             image_size,
+            model,
             intrinsics,
-            distortion: BrownConrady::new(d[0], d[1], d[2], d[3]),
+            distortion,
             board_cols: cols as usize,
             board_rows: rows as usize,
             square: self.square,
@@ -112,10 +151,10 @@ impl SynthArgs {
 /// The truth section written next to the observations.
 pub fn truth_json(config: &SyntheticConfig, poses: &[Pose]) -> serde_json::Value {
     let k = config.intrinsics;
-    let d = config.distortion;
     json!({
+        "model": config.model.name(),
         "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
-        "distortion": [d.k1, d.k2, d.p1, d.p2],
+        "distortion": config.distortion,
         "poses": poses.iter().map(|p| {
             let r = p.rotation;
             json!({
@@ -143,7 +182,16 @@ fn stereo_config(args: &SynthStereoArgs) -> Result<SyntheticStereoConfig, Failur
         }
         None => defaults.right_intrinsics,
     };
-    let d = parse_list(&args.right_distortion, 4, "--right-distortion")?;
+    let right_model = args
+        .right_model
+        .clone()
+        .unwrap_or_else(|| args.left.model.clone());
+    let (right_model, right_distortion) = match (&args.right_model, &args.right_distortion) {
+        (None, None) if left.model == CameraModel::BrownConrady4 => {
+            (left.model, defaults.right_distortion.clone())
+        }
+        _ => model_and_distortion(&right_model, args.right_distortion.as_deref(), "right-")?,
+    };
     let rig = match &args.rig {
         Some(text) => {
             let v = parse_list(text, 6, "--rig")?;
@@ -156,8 +204,9 @@ fn stereo_config(args: &SynthStereoArgs) -> Result<SyntheticStereoConfig, Failur
     };
     Ok(SyntheticStereoConfig {
         left,
+        right_model,
         right_intrinsics,
-        right_distortion: BrownConrady::new(d[0], d[1], d[2], d[3]),
+        right_distortion,
         right_image_size,
         rig,
     })
@@ -176,8 +225,9 @@ pub fn run(command: &SynthCommand) -> Result<(), Failure> {
             ));
             out["board"] = json!({"cols": c.board_cols, "rows": c.board_rows, "square": c.square});
             let right = SyntheticConfig {
+                model: config.right_model,
                 intrinsics: config.right_intrinsics,
-                distortion: config.right_distortion,
+                distortion: config.right_distortion.clone(),
                 image_size: config.right_image_size,
                 ..config.left.clone()
             };

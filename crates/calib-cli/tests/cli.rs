@@ -117,7 +117,7 @@ fn synth_then_calibrate_recovers_the_truth() {
         json["camera"]["fx"].as_f64().unwrap(),
         input["truth"]["fx"].as_f64().unwrap(),
     );
-    let sigma = json["std"]["fx"].as_f64().unwrap();
+    let sigma = json["camera"]["std"]["fx"].as_f64().unwrap();
     assert!(
         (fx - truth).abs() < 4.0 * sigma,
         "{fx} vs {truth} (sigma {sigma})"
@@ -142,7 +142,7 @@ fn options_reach_the_library() {
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     assert_eq!(json["camera"]["cx"].as_f64().unwrap(), 319.5);
     assert_eq!(json["camera"]["distortion"]["p1"].as_f64().unwrap(), 0.0);
-    let fixed: Vec<&str> = json["fixed_parameters"]
+    let fixed: Vec<&str> = json["camera"]["fixed_parameters"]
         .as_array()
         .unwrap()
         .iter()

@@ -11,45 +11,10 @@
 //!
 //! Unknown keys are ignored.
 
-use crate::error::{CalibrationError, PointKind};
+pub use calib_core::data::{ImageSize, View};
+pub use calib_core::single::{PLANARITY_TOLERANCE, check_view};
 use nalgebra::{Point2, Point3};
-use serde::{Deserialize, Serialize};
-
-/// Image size in pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ImageSize {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-}
-
-impl ImageSize {
-    /// A size.
-    pub const fn new(width: u32, height: u32) -> Self {
-        Self { width, height }
-    }
-
-    /// The image centre in OpenCV's pixel convention: `((w - 1) / 2, (h - 1) / 2)` (the first
-    /// pixel's centre is `(0, 0)`).
-    pub fn centre(&self) -> (f64, f64) {
-        (
-            (self.width as f64 - 1.0) / 2.0,
-            (self.height as f64 - 1.0) / 2.0,
-        )
-    }
-}
-
-/// One view of the board.
-#[derive(Debug, Clone, PartialEq)]
-pub struct View {
-    /// A name for messages and reports (the image file name, or "view N").
-    pub name: String,
-    /// Board points, in board units; the planar method needs `Z = 0`.
-    pub object_points: Vec<Point3<f64>>,
-    /// Measured pixels (OpenCV convention), in the same order.
-    pub image_points: Vec<Point2<f64>>,
-}
+use serde::Deserialize;
 
 /// All views of one camera.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,26 +25,7 @@ pub struct Observations {
     pub views: Vec<View>,
 }
 
-/// Problems reading an observation file.
-#[derive(Debug, thiserror::Error)]
-pub enum ReadError {
-    /// The file could not be read.
-    #[error("cannot read {path}: {source}")]
-    Io {
-        /// The path.
-        path: String,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The file is not valid observation JSON.
-    #[error("{path}: {source}")]
-    Json {
-        /// The path (or `<string>` for text parsed from memory).
-        path: String,
-        /// The parse error, with line and column.
-        source: serde_json::Error,
-    },
-}
+pub use calib_core::io::ReadError;
 
 #[derive(Deserialize)]
 struct ViewFile {
@@ -96,25 +42,23 @@ struct ObservationFile {
     views: Vec<ViewFile>,
 }
 
-/// Reads a whole text file for one of the observation formats: its text and the displayable
-/// path that error messages name.
-pub fn read_text(path: &std::path::Path) -> Result<(String, String), ReadError> {
-    let name = path.display().to_string();
-    match std::fs::read_to_string(path) {
-        Ok(text) => Ok((text, name)),
-        Err(source) => Err(ReadError::Io { path: name, source }),
-    }
-}
-
 impl Observations {
     /// Parses the JSON observation format.
     pub fn from_json(text: &str) -> Result<Self, ReadError> {
         Self::parse(text, "<string>")
     }
 
-    /// Reads a JSON observation file.
+    /// Reads a JSON observation file (at most [`calib_core::io::DEFAULT_MAX_INPUT_BYTES`]).
     pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        let (text, name) = read_text(path.as_ref())?;
+        Self::read_bounded(path, calib_core::io::DEFAULT_MAX_INPUT_BYTES)
+    }
+
+    /// Reads a JSON observation file of at most `max_bytes` bytes.
+    pub fn read_bounded(
+        path: impl AsRef<std::path::Path>,
+        max_bytes: u64,
+    ) -> Result<Self, ReadError> {
+        let (text, name) = calib_core::io::read_text(path.as_ref(), max_bytes)?;
         Self::parse(&text, &name)
     }
 
@@ -173,68 +117,10 @@ impl Observations {
     }
 }
 
-/// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
-/// decimal, e.g. 24.23 mm squares) is far below it, a real out-of-plane point far above.
-pub const PLANARITY_TOLERANCE: f64 = 1e-9;
-
-/// Checks one view's points: counts, finiteness and planarity.
-pub fn check_view(index: usize, view: &View) -> Result<(), CalibrationError> {
-    let (n_obj, n_img) = (view.object_points.len(), view.image_points.len());
-    if n_obj != n_img {
-        return Err(CalibrationError::PointCountMismatch {
-            view: index,
-            object: n_obj,
-            image: n_img,
-        });
-    }
-    if n_obj < 4 {
-        return Err(CalibrationError::TooFewPoints {
-            view: index,
-            found: n_obj,
-        });
-    }
-    let mut extent = 0.0f64;
-    for (point, (o, m)) in view
-        .object_points
-        .iter()
-        .zip(&view.image_points)
-        .enumerate()
-    {
-        if !(o.x.is_finite() && o.y.is_finite() && o.z.is_finite()) {
-            return Err(CalibrationError::NonFinite {
-                view: index,
-                point,
-                kind: PointKind::Object,
-            });
-        }
-        if !(m.x.is_finite() && m.y.is_finite()) {
-            return Err(CalibrationError::NonFinite {
-                view: index,
-                point,
-                kind: PointKind::Image,
-            });
-        }
-        extent = extent.max(o.x.abs()).max(o.y.abs());
-    }
-    let tolerance = PLANARITY_TOLERANCE * extent.max(f64::MIN_POSITIVE);
-    if let Some((point, o)) = view
-        .object_points
-        .iter()
-        .enumerate()
-        .find(|(_, o)| o.z.abs() > tolerance)
-    {
-        return Err(CalibrationError::NotPlanar {
-            view: index,
-            point,
-            z: o.z,
-        });
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use calib_core::{CalibrationError, PointKind};
 
     #[test]
     fn reads_the_documented_format_and_ignores_unknown_keys() {

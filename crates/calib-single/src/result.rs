@@ -1,63 +1,25 @@
-//! The calibration result, its human summary and its JSON form (`docs/formats.md`).
+//! The single-camera calibration result, its human summary and its JSON form
+//! (`docs/formats.md`). The result is a serde type: [`Calibration::to_json`] writes it and
+//! [`Calibration::from_json`] reads it back.
 
-use crate::observations::ImageSize;
-use camera_model::{
-    AxisAngle, Camera, EulerXyz, Intrinsics, LensDistortion, Pose, RotationKind,
-    RotationParameterization,
+use calib_core::ImageSize;
+pub use calib_core::result::{
+    CameraEstimate, SkippedView, StageTimes, ViewResult, write_camera_summary,
 };
+use camera_model::{AnyCamera, Intrinsics, RotationKind};
 use lm_solver::SolverReport;
-use serde_json::{Value, json};
+use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::time::Duration;
 
-/// The estimate for one view.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ViewResult {
-    /// Index of the view in the input.
-    pub index: usize,
-    /// The view's name.
-    pub name: String,
-    /// Board-to-camera pose.
-    pub pose: Pose,
-    /// The pose parameters `[rho (3), t (3)]` in the calibration's rotation parameterization.
-    pub pose_params: [f64; 6],
-    /// Standard deviations of `pose_params` (same units: radians, board units).
-    pub pose_std: [f64; 6],
-    /// RMS reprojection error of this view, pixels.
-    pub rms: f64,
-    /// Number of points.
-    pub num_points: usize,
-}
-
-/// A view left out because it failed the checks (only with `skip_bad_views`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SkippedView {
-    /// Index in the input.
-    pub index: usize,
-    /// The view's name.
-    pub name: String,
-    /// Why it was skipped.
-    pub reason: String,
-}
-
-/// Wall time of each stage of a calibration.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StageTimes {
-    /// Input checks and homographies.
-    pub homographies: Duration,
-    /// Closed-form intrinsics and poses.
-    pub initialization: Duration,
-    /// Levenberg-Marquardt.
-    pub optimization: Duration,
-    /// Covariance and result assembly.
-    pub uncertainty: Duration,
-}
+/// The `format` key of single-camera result files.
+pub const FORMAT: &str = "calib-single-result/2";
 
 /// A calibrated camera with uncertainties and diagnostics.
-#[derive(Debug, Clone)]
-pub struct Calibration<D> {
-    /// Intrinsics and distortion.
-    pub camera: Camera<D>,
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    /// Lens model, intrinsics and distortion (OpenCV's order).
+    pub camera: AnyCamera,
     /// Standard deviations of `fx, fy, cx, cy` (pixels; zero for fixed parameters).
     pub intrinsics_std: [f64; 4],
     /// Standard deviations of the distortion coefficients (zero for fixed ones).
@@ -94,122 +56,68 @@ pub struct Calibration<D> {
     pub stage_times: StageTimes,
 }
 
-fn round_trip_rotation(pose: &Pose) -> (Vec<f64>, Vec<f64>) {
-    let w = AxisAngle::from_matrix(&pose.rotation);
-    let e = EulerXyz::from_matrix(&pose.rotation);
-    (vec![w.x, w.y, w.z], vec![e.x, e.y, e.z])
+#[derive(Serialize, Deserialize)]
+struct InitialJson {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    rms: f64,
 }
 
-/// A pose as JSON: rotation matrix, rotation vector, Euler X-Y-Z angles and translation.
-pub fn pose_json(pose: &Pose) -> Value {
-    let r = &pose.rotation;
-    let (rvec, euler) = round_trip_rotation(pose);
-    json!({
-        "rotation_matrix": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
-        "rotation_vector": rvec,
-        "euler_xyz": euler,
-        "translation": [pose.translation.x, pose.translation.y, pose.translation.z],
-    })
+#[derive(Serialize, Deserialize)]
+struct CalibrationJson {
+    format: String,
+    #[serde(default)]
+    pixel_convention: String,
+    #[serde(default)]
+    pose_convention: String,
+    distortion_model: String,
+    image_size: ImageSize,
+    rms: f64,
+    elapsed_seconds: f64,
+    stage_seconds: StageTimes,
+    num_points: usize,
+    num_views: usize,
+    camera: CameraEstimate,
+    residual_std_xy: [f64; 2],
+    residual_variance: f64,
+    initial: InitialJson,
+    rotation_parameterization: String,
+    views: Vec<ViewResult>,
+    skipped_views: Vec<SkippedView>,
+    solver: SolverReport,
 }
 
-/// A solver report as JSON (termination, counts, costs, times, per-iteration records).
-pub fn solver_json(report: &SolverReport) -> Value {
-    json!({
-        "termination": report.termination.to_string(),
-        "converged": report.termination.is_converged(),
-        "iterations": report.iterations.len(),
-        "accepted_steps": report.accepted_steps,
-        "initial_cost": report.initial_cost,
-        "final_cost": report.final_cost,
-        "residual_evaluations": report.residual_evaluations,
-        "jacobian_evaluations": report.jacobian_evaluations,
-        "linear_solver": format!("{:?}", report.linear_solver),
-        "evaluate_seconds": report.evaluate_time.as_secs_f64(),
-        "solve_seconds": report.solve_time.as_secs_f64(),
-        "total_seconds": report.total_time.as_secs_f64(),
-        "per_iteration": report.iterations.iter().map(|r| json!({
-            "cost": r.cost,
-            "trial_cost": if r.trial_cost.is_finite() { json!(r.trial_cost) } else { Value::Null },
-            "gradient_max_norm": r.gradient_max_norm,
-            "step_norm": r.step_norm,
-            "gain_ratio": if r.gain_ratio.is_finite() { json!(r.gain_ratio) } else { Value::Null },
-            "lambda": r.lambda,
-            "accepted": r.accepted,
-        })).collect::<Vec<_>>(),
-    })
+fn rotation_kind(name: &str) -> Result<RotationKind, String> {
+    [
+        RotationKind::EulerXyz,
+        RotationKind::AxisAngle,
+        RotationKind::So3,
+    ]
+    .into_iter()
+    .find(|k| k.name() == name)
+    .ok_or_else(|| format!("unknown rotation parameterization '{name}'"))
 }
 
-/// The coefficients of `camera`'s distortion model, in the model's order (`D::PARAM_NAMES`).
-pub fn distortion_params<D: LensDistortion>(camera: &Camera<D>) -> Vec<f64> {
-    let mut d = vec![0.0; D::NUM_PARAMS];
-    camera.distortion.write_params(&mut d);
-    d
-}
-
-/// A JSON object `{name: value}` for a distortion model's coefficients (or their deviations).
-pub fn named_distortion_json<D: LensDistortion>(values: &[f64]) -> Value {
-    D::PARAM_NAMES
-        .iter()
-        .zip(values)
-        .map(|(n, v)| (n.to_string(), json!(v)))
-        .collect::<serde_json::Map<_, _>>()
-        .into()
-}
-
-/// Appends the camera lines of a human summary (focal length, principal point, distortion, each
-/// with +- 3 sigma, and the parameters held fixed), every line prefixed with `indent`.
-/// `intrinsics_std` holds the deviations of `fx, fy, cx, cy` in pixels, `distortion_std` those of
-/// the distortion coefficients in the model's order.
-pub fn write_camera_summary<D: LensDistortion>(
-    out: &mut String,
-    indent: &str,
-    camera: &Camera<D>,
-    intrinsics_std: &[f64; 4],
-    distortion_std: &[f64],
-    fixed_parameters: &[String],
-) {
-    let k = &camera.intrinsics;
-    let s = intrinsics_std;
-    let _ = writeln!(
-        out,
-        "{indent}focal length     fx, fy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-        k.fx,
-        k.fy,
-        3.0 * s[0],
-        3.0 * s[1]
-    );
-    let _ = writeln!(
-        out,
-        "{indent}principal point  cx, cy = {:>11.5} {:>11.5}   +- {:.5} {:.5}",
-        k.cx,
-        k.cy,
-        3.0 * s[2],
-        3.0 * s[3]
-    );
-    let values: Vec<String> = distortion_params(camera)
-        .iter()
-        .map(|v| format!("{v:>9.5}"))
-        .collect();
-    let sigmas: Vec<String> = distortion_std
-        .iter()
-        .map(|v| format!("{:.5}", 3.0 * v))
-        .collect();
-    let _ = writeln!(
-        out,
-        "{indent}distortion ({}) = {}   +- {}",
-        D::PARAM_NAMES.join(", "),
-        values.join(" "),
-        sigmas.join(" ")
-    );
-    if !fixed_parameters.is_empty() {
-        let _ = writeln!(out, "{indent}held fixed: {}", fixed_parameters.join(", "));
+impl Calibration {
+    /// The camera with its uncertainties as a [`CameraEstimate`] named "camera".
+    pub fn estimate(&self) -> CameraEstimate {
+        CameraEstimate {
+            name: "camera".into(),
+            camera: self.camera.clone(),
+            image_size: self.image_size,
+            intrinsics_std: self.intrinsics_std,
+            distortion_std: self.distortion_std.clone(),
+            fixed_parameters: self.fixed_parameters.clone(),
+            rms: self.rms,
+            num_points: self.num_points,
+        }
     }
-}
 
-impl<D: LensDistortion> Calibration<D> {
-    /// The distortion coefficients in the model's order.
+    /// The distortion coefficients in the model's (OpenCV's) order.
     pub fn distortion_coefficients(&self) -> Vec<f64> {
-        distortion_params(&self.camera)
+        self.camera.distortion.clone()
     }
 
     /// The views sorted by decreasing RMS (worst first).
@@ -219,61 +127,74 @@ impl<D: LensDistortion> Calibration<D> {
         v
     }
 
+    fn to_file(&self) -> CalibrationJson {
+        let k = &self.initial_intrinsics;
+        CalibrationJson {
+            format: FORMAT.into(),
+            pixel_convention: "OpenCV: (0,0) is the centre of the top-left pixel, x right, y down"
+                .into(),
+            pose_convention: "board (world) to camera: X_cam = R X_board + t".into(),
+            distortion_model: self.camera.model.to_string(),
+            image_size: self.image_size,
+            rms: self.rms,
+            elapsed_seconds: self.elapsed.as_secs_f64(),
+            stage_seconds: self.stage_times,
+            num_points: self.num_points,
+            num_views: self.views.len(),
+            camera: self.estimate(),
+            residual_std_xy: self.residual_std,
+            residual_variance: self.residual_variance,
+            initial: InitialJson {
+                fx: k.fx,
+                fy: k.fy,
+                cx: k.cx,
+                cy: k.cy,
+                rms: self.initial_rms,
+            },
+            rotation_parameterization: self.rotation.name().into(),
+            views: self.views.clone(),
+            skipped_views: self.skipped_views.clone(),
+            solver: self.solver.clone(),
+        }
+    }
+
     /// The JSON form of the result (schema in `docs/formats.md`).
-    pub fn to_json(&self) -> Value {
-        let k = &self.camera.intrinsics;
-        let dist = self.distortion_coefficients();
-        let named = named_distortion_json::<D>;
-        let s = &self.intrinsics_std;
-        json!({
-            "format": "calib-single-result/1",
-            "pixel_convention": "OpenCV: (0,0) is the centre of the top-left pixel, x right, y down",
-            "pose_convention": "board (world) to camera: X_cam = R X_board + t",
-            "distortion_model": D::NAME,
-            "image_size": [self.image_size.width, self.image_size.height],
-            "rms": self.rms,
-            "elapsed_seconds": self.elapsed.as_secs_f64(),
-            "stage_seconds": {
-                "homographies": self.stage_times.homographies.as_secs_f64(),
-                "initialization": self.stage_times.initialization.as_secs_f64(),
-                "optimization": self.stage_times.optimization.as_secs_f64(),
-                "uncertainty": self.stage_times.uncertainty.as_secs_f64(),
-            },
-            "num_points": self.num_points,
-            "num_views": self.views.len(),
-            "camera": {
-                "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
-                "distortion": named(&dist),
-                "camera_matrix": [[k.fx, 0.0, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
-                "dist_coeffs": dist,
-            },
-            "std": {
-                "fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3],
-                "distortion": named(&self.distortion_std),
-            },
-            "fixed_parameters": self.fixed_parameters,
-            "residual_std_xy": self.residual_std,
-            "residual_variance": self.residual_variance,
-            "initial": {
-                "fx": self.initial_intrinsics.fx, "fy": self.initial_intrinsics.fy,
-                "cx": self.initial_intrinsics.cx, "cy": self.initial_intrinsics.cy,
-                "rms": self.initial_rms,
-            },
-            "rotation_parameterization": self.rotation.name(),
-            "views": self.views.iter().map(|v| {
-                let mut pose = pose_json(&v.pose);
-                pose["index"] = json!(v.index);
-                pose["image"] = json!(v.name);
-                pose["rms"] = json!(v.rms);
-                pose["points"] = json!(v.num_points);
-                pose["pose_params"] = json!(v.pose_params);
-                pose["pose_std"] = json!(v.pose_std);
-                pose
-            }).collect::<Vec<_>>(),
-            "skipped_views": self.skipped_views.iter().map(|s| json!({
-                "index": s.index, "image": s.name, "reason": s.reason,
-            })).collect::<Vec<_>>(),
-            "solver": solver_json(&self.solver),
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self.to_file()).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// Reads a result written by [`Calibration::to_json`].
+    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
+        let j: CalibrationJson = serde_json::from_value(value).map_err(|e| e.to_string())?;
+        if !j.format.starts_with("calib-single-result/") {
+            return Err(format!(
+                "not a single-camera result (format '{}')",
+                j.format
+            ));
+        }
+        Ok(Calibration {
+            camera: j.camera.camera,
+            intrinsics_std: j.camera.intrinsics_std,
+            distortion_std: j.camera.distortion_std,
+            fixed_parameters: j.camera.fixed_parameters,
+            image_size: j.image_size,
+            rotation: rotation_kind(&j.rotation_parameterization)?,
+            views: j.views,
+            skipped_views: j.skipped_views,
+            rms: j.rms,
+            residual_std: j.residual_std_xy,
+            residual_variance: j.residual_variance,
+            num_points: j.num_points,
+            initial_intrinsics: Intrinsics::new(
+                j.initial.fx,
+                j.initial.fy,
+                j.initial.cx,
+                j.initial.cy,
+            ),
+            initial_rms: j.initial.rms,
+            solver: j.solver,
+            elapsed: Duration::try_from_secs_f64(j.elapsed_seconds.max(0.0)).unwrap_or_default(),
+            stage_times: j.stage_seconds,
         })
     }
 

@@ -135,9 +135,10 @@ fn too_few_observations_for_the_free_parameters() {
             ],
         }],
     };
-    let options = CalibrationOptions {
-        intrinsic_guess: Some(Intrinsics::new(500.0, 500.0, 319.5, 239.5)),
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.intrinsic_guess = Some(Intrinsics::new(500.0, 500.0, 319.5, 239.5));
+        o
     };
     assert_eq!(
         calibrate(&obs, &options).map(|_| ()),
@@ -190,17 +191,20 @@ fn fronto_parallel_views_make_the_focal_length_unobservable() {
 fn invalid_options_are_rejected() {
     let obs = good();
     for options in [
-        CalibrationOptions {
-            distortion_guess: Some(vec![0.1, 0.2]),
-            ..Default::default()
+        {
+            let mut o = CalibrationOptions::default();
+            o.distortion_guess = Some(vec![0.1, 0.2]);
+            o
         },
-        CalibrationOptions {
-            intrinsic_guess: Some(Intrinsics::new(-5.0, 500.0, 300.0, 200.0)),
-            ..Default::default()
+        {
+            let mut o = CalibrationOptions::default();
+            o.intrinsic_guess = Some(Intrinsics::new(-5.0, 500.0, 300.0, 200.0));
+            o
         },
-        CalibrationOptions {
-            fixed_distortion: vec![9],
-            ..Default::default()
+        {
+            let mut o = CalibrationOptions::default();
+            o.fixed_distortion = vec![9];
+            o
         },
     ] {
         assert!(matches!(
@@ -216,9 +220,10 @@ fn skipping_every_view_is_an_error_that_says_so() {
     for v in &mut obs.views {
         v.image_points.pop();
     }
-    let options = CalibrationOptions {
-        skip_bad_views: true,
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.skip_bad_views = true;
+        o
     };
     let err = calibrate(&obs, &options).map(|_| ()).unwrap_err();
     assert_eq!(err, CalibrationError::NoViews { skipped: 6 });

@@ -2,10 +2,8 @@
 
 use calib_single::synthetic::{SyntheticConfig, SyntheticSet, generate};
 use calib_single::{Calibration, CalibrationOptions, FocalInit, calibrate};
-use camera_model::{
-    BrownConrady, Intrinsics, LensDistortion, RotationKind, RotationParameterization,
-};
-use lm_solver::test_problems::Rng;
+use camera_model::{Intrinsics, RotationKind, RotationParameterization};
+use lm_solver::Rng;
 
 fn truth_vector(set: &SyntheticSet) -> Vec<f64> {
     let mut v = vec![0.0; 8];
@@ -13,13 +11,13 @@ fn truth_vector(set: &SyntheticSet) -> Vec<f64> {
     v
 }
 
-fn estimate_vector(c: &Calibration<BrownConrady>) -> Vec<f64> {
+fn estimate_vector(c: &Calibration) -> Vec<f64> {
     let mut v = vec![0.0; 8];
     c.camera.write_params(&mut v);
     v
 }
 
-fn std_vector(c: &Calibration<BrownConrady>) -> Vec<f64> {
+fn std_vector(c: &Calibration) -> Vec<f64> {
     let mut v = c.intrinsics_std.to_vec();
     v.extend(&c.distortion_std);
     v
@@ -128,29 +126,23 @@ fn closed_form_start_reaches_the_true_minimum() {
                     rng.range(210.0, 270.0),
                 )
             },
-            distortion: BrownConrady::new(
+            distortion: vec![
                 rng.range(-0.35, 0.15),
                 rng.range(-0.1, 0.2),
                 rng.range(-0.003, 0.003),
                 rng.range(-0.003, 0.003),
-            ),
+            ],
             seed: 5000 + seed,
             ..Default::default()
         };
         let set = generate(&config).unwrap();
         let from_seed = calibrate(&set.observations, &CalibrationOptions::default());
-        let from_truth = calibrate(
-            &set.observations,
-            &CalibrationOptions {
-                intrinsic_guess: Some(set.camera.intrinsics),
-                distortion_guess: Some({
-                    let mut d = vec![0.0; 4];
-                    set.camera.distortion.write_params(&mut d);
-                    d
-                }),
-                ..Default::default()
-            },
-        )
+        let from_truth = calibrate(&set.observations, &{
+            let mut o = CalibrationOptions::default();
+            o.intrinsic_guess = Some(set.camera.intrinsics);
+            o.distortion_guess = Some(set.camera.distortion.clone());
+            o
+        })
         .unwrap();
         // Same minimum: equal RMS (to rounding) and parameters equal to a small fraction of their
         // standard deviation (the stopping tolerance leaves differences of order 1e-6 sigma).
@@ -196,9 +188,10 @@ fn base_set() -> SyntheticSet {
 #[test]
 fn option_fix_principal_point() {
     let set = base_set();
-    let options = CalibrationOptions {
-        fix_principal_point: true,
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.fix_principal_point = true;
+        o
     };
     let r = calibrate(&set.observations, &options).unwrap();
     assert_eq!(
@@ -222,9 +215,10 @@ fn option_fix_aspect_ratio() {
         }
     })
     .unwrap();
-    let options = CalibrationOptions {
-        fix_aspect_ratio: true,
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.fix_aspect_ratio = true;
+        o
     };
     let r = calibrate(&set.observations, &options).unwrap();
     let k = r.camera.intrinsics;
@@ -233,10 +227,11 @@ fn option_fix_aspect_ratio() {
     assert_eq!(r.intrinsics_std[0], r.intrinsics_std[1]);
     assert!(r.intrinsics_std[0] > 0.0);
     // A guess with fx/fy = 1.1 is kept at 1.1.
-    let options = CalibrationOptions {
-        fix_aspect_ratio: true,
-        intrinsic_guess: Some(Intrinsics::new(880.0, 800.0, 320.0, 240.0)),
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.fix_aspect_ratio = true;
+        o.intrinsic_guess = Some(Intrinsics::new(880.0, 800.0, 320.0, 240.0));
+        o
     };
     let r = calibrate(&set.observations, &options).unwrap();
     assert!((r.camera.intrinsics.fx / r.camera.intrinsics.fy - 1.1).abs() < 1e-12);
@@ -245,7 +240,7 @@ fn option_fix_aspect_ratio() {
 #[test]
 fn option_zero_tangential_and_fixed_terms() {
     let set = generate(&SyntheticConfig {
-        distortion: BrownConrady::new(-0.25, 0.0, 0.0, 0.0),
+        distortion: vec![-0.25, 0.0, 0.0, 0.0],
         ..SyntheticConfig {
             views: 12,
             noise_px: 0.1,
@@ -254,21 +249,23 @@ fn option_zero_tangential_and_fixed_terms() {
         }
     })
     .unwrap();
-    let options = CalibrationOptions {
-        zero_tangential_distortion: true,
-        fixed_distortion: vec![1],
-        distortion_guess: Some(vec![0.0, 0.0, 0.01, 0.02]),
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.zero_tangential_distortion = true;
+        o.fixed_distortion = vec![1];
+        o.distortion_guess = Some(vec![0.0, 0.0, 0.01, 0.02]);
+        o
     };
     let r = calibrate(&set.observations, &options).unwrap();
-    let d = r.camera.distortion;
-    assert_eq!((d.k2, d.p1, d.p2), (0.0, 0.0, 0.0));
+    let d = &r.camera.distortion;
+    assert_eq!((d[1], d[2], d[3]), (0.0, 0.0, 0.0));
     assert_eq!(&r.distortion_std[1..], &[0.0, 0.0, 0.0]);
-    assert!((d.k1 + 0.25).abs() < 0.01);
+    assert!((d[0] + 0.25).abs() < 0.01);
     assert_eq!(r.fixed_parameters, vec!["k2", "p1", "p2"]);
-    let bad = CalibrationOptions {
-        fixed_distortion: vec![4],
-        ..Default::default()
+    let bad = {
+        let mut o = CalibrationOptions::default();
+        o.fixed_distortion = vec![4];
+        o
     };
     assert!(calibrate(&set.observations, &bad).is_err());
 }
@@ -277,25 +274,21 @@ fn option_zero_tangential_and_fixed_terms() {
 fn option_intrinsic_guess_and_focal_methods_reach_the_same_minimum() {
     let set = base_set();
     let reference = calibrate(&set.observations, &CalibrationOptions::default()).unwrap();
-    let guessed = calibrate(
-        &set.observations,
-        &CalibrationOptions {
-            intrinsic_guess: Some(Intrinsics::new(700.0, 720.0, 300.0, 250.0)),
-            ..Default::default()
-        },
-    )
+    let guessed = calibrate(&set.observations, &{
+        let mut o = CalibrationOptions::default();
+        o.intrinsic_guess = Some(Intrinsics::new(700.0, 720.0, 300.0, 250.0));
+        o
+    })
     .unwrap();
     assert_eq!(
         guessed.initial_intrinsics,
         Intrinsics::new(700.0, 720.0, 300.0, 250.0)
     );
-    let least_squares = calibrate(
-        &set.observations,
-        &CalibrationOptions {
-            focal_init: FocalInit::LeastSquares,
-            ..Default::default()
-        },
-    )
+    let least_squares = calibrate(&set.observations, &{
+        let mut o = CalibrationOptions::default();
+        o.focal_init = FocalInit::LeastSquares;
+        o
+    })
     .unwrap();
     assert_ne!(
         least_squares.initial_intrinsics.fx,
@@ -311,13 +304,11 @@ fn option_intrinsic_guess_and_focal_methods_reach_the_same_minimum() {
 fn option_axis_angle_rotations_reach_the_same_minimum() {
     let set = base_set();
     let euler = calibrate(&set.observations, &CalibrationOptions::default()).unwrap();
-    let axis = calibrate(
-        &set.observations,
-        &CalibrationOptions {
-            rotation: RotationKind::AxisAngle,
-            ..Default::default()
-        },
-    )
+    let axis = calibrate(&set.observations, &{
+        let mut o = CalibrationOptions::default();
+        o.rotation = RotationKind::AxisAngle;
+        o
+    })
     .unwrap();
     assert_eq!(axis.rotation, RotationKind::AxisAngle);
     assert!((axis.rms - euler.rms).abs() < 1e-9);
@@ -384,13 +375,11 @@ fn bad_views_are_reported_or_skipped() {
         "{err}"
     );
     assert!(err.to_string().starts_with("view 4:"), "{err}");
-    let r = calibrate(
-        &set.observations,
-        &CalibrationOptions {
-            skip_bad_views: true,
-            ..Default::default()
-        },
-    )
+    let r = calibrate(&set.observations, &{
+        let mut o = CalibrationOptions::default();
+        o.skip_bad_views = true;
+        o
+    })
     .unwrap();
     assert_eq!(r.skipped_views.len(), 1);
     assert_eq!(r.skipped_views[0].index, 4);
@@ -408,7 +397,7 @@ fn result_json_has_the_documented_fields() {
         "rms",
         "elapsed_seconds",
         "camera",
-        "std",
+        "distortion_model",
         "views",
         "solver",
         "image_size",
@@ -422,16 +411,29 @@ fn result_json_has_the_documented_fields() {
     );
     assert_eq!(json["views"].as_array().unwrap().len(), 12);
     assert_eq!(json["camera"]["dist_coeffs"].as_array().unwrap().len(), 4);
+    assert_eq!(
+        json["camera"]["std"]["fx"].as_f64().unwrap(),
+        r.intrinsics_std[0]
+    );
+    assert_eq!(json["distortion_model"], "brown-conrady4");
     assert!(json["solver"]["converged"].as_bool().unwrap());
+    // The result reads back: the same calibration, the same JSON.
+    let back = calib_single::Calibration::from_json(json.clone()).unwrap();
+    assert_eq!(back.camera, r.camera);
+    assert_eq!(back.views, r.views);
+    assert_eq!(back.solver.iterations.len(), r.solver.iterations.len());
+    assert_eq!(back.to_json(), json);
+    assert!(calib_single::Calibration::from_json(serde_json::json!({"format": "x"})).is_err());
 }
 
 #[test]
 fn option_fix_focal_length() {
     let set = base_set();
-    let options = CalibrationOptions {
-        fix_focal_length: true,
-        intrinsic_guess: Some(Intrinsics::new(805.0, 795.0, 320.0, 240.0)),
-        ..Default::default()
+    let options = {
+        let mut o = CalibrationOptions::default();
+        o.fix_focal_length = true;
+        o.intrinsic_guess = Some(Intrinsics::new(805.0, 795.0, 320.0, 240.0));
+        o
     };
     let r = calibrate(&set.observations, &options).unwrap();
     assert_eq!(

@@ -1,46 +1,35 @@
-//! The stereo pipeline: checks, one single-camera calibration per camera, the initial rig, the
-//! joint Levenberg-Marquardt over `22 + 6M` parameters and the covariance. Walk-through:
-//! `docs/calib-stereo.md`.
+//! The stereo pipeline, a thin front end over the engine (`calib_core`): checks, one
+//! single-camera calibration per camera, the initial rig, the joint Levenberg-Marquardt over
+//! `22 + 6M` parameters and the covariance. Walk-through: `docs/calib-stereo.md`.
 
-use crate::cost::{CameraCoupling, PairData, StereoCost};
 use crate::error::{Side, StereoError};
 use crate::observations::{StereoObservations, check_pair};
 use crate::options::StereoOptions;
-use crate::result::{CameraEstimate, PairResult, SkippedPair, StereoCalibration};
-use crate::rig::initial_rig;
-use calib_single::calibrate::{camera_param_names, fixed_camera_components};
-use calib_single::{
-    CalibrationError, CalibrationOptions, ImageSize, Observations, calibrate_with_model,
+use crate::result::{PairResult, SkippedPair, StereoCalibration};
+use calib_core::result::CameraEstimate;
+use calib_core::rig::initial_rig;
+use calib_core::single::camera_param_names;
+use calib_core::{
+    CalibrationError, CalibrationOptions, JointProblem, JointSolution, ObservationSpec,
+    SolveOptions, View, prepare_camera,
 };
-use camera_model::{
-    AxisAngle, BrownConrady, Camera, EulerXyz, LensDistortion, Pose, RotationKind,
-    RotationParameterization, skew,
-};
-use lm_solver::{CostFunction, ParameterBlockId, ProblemBuilder, ResidualBlockId, Solver};
-use nalgebra::{Matrix3, Point2, Vector6};
+use camera_model::{AnyCamera, Pose, skew};
+use nalgebra::{Matrix3, Point2};
 use std::time::Instant;
 
-/// Calibrates a stereo rig with the Brown-Conrady `k1, k2, p1, p2` model on both cameras.
+/// Calibrates a stereo rig (lens models `options.left.model` and `options.right.model`,
+/// Brown-Conrady `k1, k2, p1, p2` by default):
+///
+/// 1. checks every pair (each view as in single-camera calibration),
+/// 2. calibrates each camera alone on its views,
+/// 3. computes the initial rig from the per-pair poses (`calib_core::rig`),
+/// 4. optimizes both cameras, the left pose of every pair and the rig together (poses eliminated
+///    by the Schur complement; the reduced system has the shared parameters), then computes the
+///    covariance.
 pub fn calibrate_stereo(
     observations: &StereoObservations,
     options: &StereoOptions,
-) -> Result<StereoCalibration<BrownConrady>, StereoError> {
-    calibrate_stereo_with_model::<BrownConrady>(observations, options)
-}
-
-/// Calibrates a stereo rig with distortion model `D`:
-///
-/// 1. checks every pair (each view as in single-camera calibration, equal point counts and
-///    board points in both views),
-/// 2. calibrates each camera alone on its views,
-/// 3. computes the initial rig from the per-pair poses (`crate::rig`),
-/// 4. optimizes both cameras, the left pose of every pair and the rig together (poses eliminated
-///    by the Schur complement; the reduced system has the 22 shared parameters), then computes the
-///    covariance.
-pub fn calibrate_stereo_with_model<D: LensDistortion>(
-    observations: &StereoObservations,
-    options: &StereoOptions,
-) -> Result<StereoCalibration<D>, StereoError> {
+) -> Result<StereoCalibration, StereoError> {
     let start = Instant::now();
     let (left_size, right_size) = observations.sizes()?;
     if observations.pairs.is_empty() {
@@ -49,63 +38,200 @@ pub fn calibrate_stereo_with_model<D: LensDistortion>(
     let (kept, skipped) = select_pairs(observations, options)?;
 
     // Single-camera calibrations on the kept pairs.
-    let single = |side: Side, camera_options: &CalibrationOptions, size: ImageSize| {
+    let single = |side: Side, camera_options: &CalibrationOptions, size| {
+        let t = Instant::now();
         let mut camera_options = camera_options.clone();
         camera_options.skip_bad_views = false;
-        camera_options.solver.num_threads = options.solver.num_threads;
+        let views: Vec<(usize, &View)> = kept
+            .iter()
+            .map(|&i| {
+                let pair = &observations.pairs[i];
+                (
+                    i,
+                    match side {
+                        Side::Left => &pair.left,
+                        Side::Right => &pair.right,
+                    },
+                )
+            })
+            .collect();
+        let camera_error = |source| StereoError::Camera {
+            camera: side,
+            source,
+        };
+        let prepared = prepare_camera(&views, Some(size), &camera_options).map_err(camera_error)?;
+        let spec = prepared.camera_spec(&side.to_string());
         // This stage only provides the start of the joint optimization, which refines every
         // parameter to the full tolerance: stop at a relative cost change of 1e-6 (the last
         // iterations of a full convergence move the parameters by far less than the joint
         // stage's first step) and skip the uncertainties.
-        camera_options.solver.function_tolerance =
-            camera_options.solver.function_tolerance.max(1e-6);
-        camera_options.compute_uncertainty = false;
-        let obs = Observations {
-            image_size: Some(size),
-            views: kept
-                .iter()
-                .map(|&i| match side {
-                    Side::Left => observations.pairs[i].left.clone(),
-                    Side::Right => observations.pairs[i].right.clone(),
-                })
-                .collect(),
-        };
-        calibrate_with_model::<D>(&obs, &camera_options).map_err(|source| StereoError::Camera {
-            camera: side,
-            source: remap_view(source, &kept),
-        })
+        let mut solve = SolveOptions::default();
+        solve.rotation = options.rotation;
+        solve.solver = camera_options.solver.clone();
+        solve.solver.num_threads = options.solver.num_threads;
+        solve.solver.function_tolerance = solve.solver.function_tolerance.max(1e-6);
+        solve.compute_uncertainty = false;
+        let solution = calib_core::solve(&prepared.into_problem(&side.to_string()), &solve)
+            .map_err(camera_error)?;
+        Ok::<_, StereoError>((spec, solution, t.elapsed()))
     };
-    let left_single = single(Side::Left, &options.left, left_size)?;
-    let right_single = single(Side::Right, &options.right, right_size)?;
-    let single_times = [left_single.elapsed, right_single.elapsed];
+    let (left_prepared, left_single, left_time) = single(Side::Left, &options.left, left_size)?;
+    let (right_prepared, right_single, right_time) =
+        single(Side::Right, &options.right, right_size)?;
 
-    let left_poses: Vec<Pose> = left_single.views.iter().map(|v| v.pose).collect();
-    let right_poses: Vec<Pose> = right_single.views.iter().map(|v| v.pose).collect();
     let rig0 = match options.rig_guess {
         Some(rig) => rig,
-        None => initial_rig(options.rig_init, &left_poses, &right_poses).ok_or_else(|| {
-            StereoError::RigInitialization("no rotation from the per-pair poses".into())
-        })?,
+        None => initial_rig(options.rig_init, &left_single.frames, &right_single.frames)
+            .ok_or_else(|| {
+                StereoError::RigInitialization("no rotation from the per-pair poses".into())
+            })?,
     };
-
-    let setup = Setup {
+    let joint_start = Instant::now();
+    let problem = joint_problem(
         observations,
-        kept,
-        skipped,
-        sizes: (left_size, right_size),
-        cameras: (left_single.camera, right_single.camera),
-        left_poses,
+        &kept,
+        options,
+        [left_prepared, right_prepared],
+        [&left_single.cameras[0], &right_single.cameras[0]],
+        &left_single.frames,
         rig0,
+    );
+    let mut solve = SolveOptions::default();
+    solve.rotation = options.rotation;
+    solve.solver = options.solver.clone();
+    let solution = calib_core::solve(&problem, &solve).map_err(|e| joint_error(e, &kept))?;
+    let joint_done = Instant::now();
+    let result = assemble(
+        observations,
+        &kept,
+        skipped,
+        &problem,
+        solution,
+        rig0,
+        [left_time, right_time, joint_done - joint_start],
         start,
-        single_times,
-    };
-    match options.rotation {
-        RotationKind::EulerXyz => optimize::<D, EulerXyz>(setup, options),
-        RotationKind::AxisAngle => optimize::<D, AxisAngle>(setup, options),
-        _ => Err(StereoError::RigInitialization(
-            "rotation kind not supported".into(),
-        )),
+    )?;
+    Ok(result)
+}
+
+/// Maps an engine error of the joint stage to the stereo error (its messages already name the
+/// cameras and pairs).
+fn joint_error(error: CalibrationError, _kept: &[usize]) -> StereoError {
+    match error {
+        CalibrationError::TooFewObservations {
+            residuals,
+            parameters,
+        } => StereoError::TooFewObservations {
+            residuals,
+            parameters,
+        },
+        CalibrationError::Solver(e) => StereoError::Solver(e),
+        other => StereoError::Joint(other),
     }
+}
+
+/// The joint problem of the kept pairs: camera 0 left (reference), camera 1 right, one frame per
+/// pair with the left camera's board pose, each camera starting from its single-camera estimate
+/// (or held at it).
+fn joint_problem(
+    observations: &StereoObservations,
+    kept: &[usize],
+    options: &StereoOptions,
+    specs: [calib_core::CameraSpec; 2],
+    cameras: [&AnyCamera; 2],
+    left_poses: &[Pose],
+    rig0: Pose,
+) -> JointProblem {
+    let mut specs = specs.to_vec();
+    for (c, (camera_options, fix_all)) in [
+        (&options.left, options.fix_left_intrinsics),
+        (&options.right, options.fix_right_intrinsics),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let spec = &mut specs[c];
+        spec.initial = cameras[c].clone();
+        let k = cameras[c].intrinsics;
+        spec.aspect_ratio = camera_options.fix_aspect_ratio.then(|| k.fx / k.fy);
+        if fix_all {
+            spec.fixed = (0..spec.model().num_params()).collect();
+        }
+    }
+    if options.same_focal_length {
+        let right = &mut specs[1];
+        right.focal_from = Some(0);
+        right.fixed.extend([0, 1]);
+        right.fixed.sort_unstable();
+        right.fixed.dedup();
+    }
+    let mut obs = Vec::with_capacity(2 * kept.len());
+    for (frame, &i) in kept.iter().enumerate() {
+        let pair = &observations.pairs[i];
+        for (camera, view) in [(0, &pair.left), (1, &pair.right)] {
+            obs.push(ObservationSpec::new(
+                camera,
+                frame,
+                format!(
+                    "pair {i} {} view ({})",
+                    if camera == 0 { "left" } else { "right" },
+                    view.name
+                ),
+                view.object_points.clone(),
+                view.image_points.iter().map(|p| p.coords).collect(),
+            ));
+        }
+    }
+    JointProblem {
+        cameras: specs,
+        reference: 0,
+        rig: vec![Pose::identity(), rig0],
+        rig_fixed: vec![true, false],
+        frames: left_poses.to_vec(),
+        frame_names: kept.iter().map(|i| format!("pair {i}")).collect(),
+        observations: obs,
+    }
+}
+
+/// The joint problem of a stereo data set at given parameters (every pair; cameras, left poses
+/// and rig as given), for evaluating the cost at someone else's solution.
+pub fn stereo_problem(
+    observations: &StereoObservations,
+    cameras: [&AnyCamera; 2],
+    left_poses: &[Pose],
+    rig: Pose,
+) -> Result<JointProblem, StereoError> {
+    let (left_size, right_size) = observations.sizes()?;
+    let mut specs = Vec::new();
+    for (name, size, camera) in [
+        ("left", left_size, cameras[0]),
+        ("right", right_size, cameras[1]),
+    ] {
+        specs.push(calib_core::CameraSpec::new(name, size, camera.clone()));
+    }
+    let mut obs = Vec::new();
+    for (i, pair) in observations.pairs.iter().enumerate() {
+        for (camera, view) in [(0, &pair.left), (1, &pair.right)] {
+            obs.push(ObservationSpec::new(
+                camera,
+                i,
+                format!("pair {i}"),
+                view.object_points.clone(),
+                view.image_points.iter().map(|p| p.coords).collect(),
+            ));
+        }
+    }
+    Ok(JointProblem {
+        cameras: specs,
+        reference: 0,
+        rig: vec![Pose::identity(), rig],
+        rig_fixed: vec![true, false],
+        frames: left_poses.to_vec(),
+        frame_names: (0..observations.pairs.len())
+            .map(|i| format!("pair {i}"))
+            .collect(),
+        observations: obs,
+    })
 }
 
 /// Checks the pairs; with `skip_bad_pairs`, pairs failing the checks or whose homography cannot
@@ -161,281 +287,15 @@ fn select_pairs(
     Ok((kept, skipped))
 }
 
-/// Renames a single-camera error's view index (an index into the kept pairs) to the pair index.
-fn remap_view(error: CalibrationError, kept: &[usize]) -> CalibrationError {
-    let pair = |view: usize| kept.get(view).copied().unwrap_or(view);
-    match error {
-        CalibrationError::Homography { view, source } => CalibrationError::Homography {
-            view: pair(view),
-            source,
-        },
-        CalibrationError::PointBehindCamera { view, point } => {
-            CalibrationError::PointBehindCamera {
-                view: pair(view),
-                point,
-            }
-        }
-        other => other,
-    }
-}
-
-struct Setup<'a, D> {
-    observations: &'a StereoObservations,
-    kept: Vec<usize>,
-    skipped: Vec<SkippedPair>,
-    sizes: (ImageSize, ImageSize),
-    cameras: (Camera<D>, Camera<D>),
-    left_poses: Vec<Pose>,
-    rig0: Pose,
-    start: Instant,
-    single_times: [std::time::Duration; 2],
-}
-
-/// Fixed components of one camera block in the joint optimization.
-fn joint_fixed<D: LensDistortion>(
-    camera_options: &CalibrationOptions,
-    fix_all: bool,
-    pairs: usize,
-) -> Vec<usize> {
-    if fix_all {
-        return (0..4 + D::NUM_PARAMS).collect();
-    }
-    fixed_camera_components::<D>(camera_options, pairs)
-}
-
-fn optimize<D: LensDistortion, P: RotationParameterization>(
-    setup: Setup<'_, D>,
-    options: &StereoOptions,
-) -> Result<StereoCalibration<D>, StereoError> {
-    let Setup {
-        observations,
-        kept,
-        skipped,
-        sizes,
-        cameras,
-        left_poses,
-        rig0,
-        start,
-        single_times,
-    } = setup;
-    let joint_start = Instant::now();
-    let n_cam = 4 + D::NUM_PARAMS;
-    let pairs: Vec<PairData> = kept
-        .iter()
-        .map(|&i| {
-            let p = &observations.pairs[i];
-            PairData {
-                object: p.left.object_points.clone(),
-                left: p.left.image_points.iter().map(|x| x.coords).collect(),
-                right: p.right.image_points.iter().map(|x| x.coords).collect(),
-            }
-        })
-        .collect();
-    let ratio = |c: &Camera<D>| c.intrinsics.fx / c.intrinsics.fy;
-    let coupling = CameraCoupling {
-        left_aspect: options.left.fix_aspect_ratio.then(|| ratio(&cameras.0)),
-        right_aspect: options.right.fix_aspect_ratio.then(|| ratio(&cameras.1)),
-        same_focal_length: options.same_focal_length,
-    };
-    let cost = StereoCost::<D, P>::new(&pairs, coupling);
-
-    let left_fixed = joint_fixed::<D>(&options.left, options.fix_left_intrinsics, pairs.len());
-    let mut right_fixed =
-        joint_fixed::<D>(&options.right, options.fix_right_intrinsics, pairs.len());
-    if options.same_focal_length {
-        right_fixed.extend([0, 1]);
-        right_fixed.sort_unstable();
-        right_fixed.dedup();
-    }
-    let mut builder = ProblemBuilder::new();
-    let left_block = builder.add_parameter_block(n_cam);
-    let right_block = builder.add_parameter_block(n_cam);
-    let rig_block = builder.add_parameter_block(6);
-    builder.set_fixed_components(left_block, &left_fixed);
-    builder.set_fixed_components(right_block, &right_fixed);
-    let pose_blocks: Vec<ParameterBlockId> = pairs
-        .iter()
-        .map(|p| {
-            let b = builder.add_parameter_block(6);
-            builder.set_eliminated(b, true);
-            builder.add_residual_block(2 * p.object.len(), &[left_block, b]);
-            if options.same_focal_length {
-                builder.add_residual_block(
-                    2 * p.object.len(),
-                    &[right_block, b, rig_block, left_block],
-                );
-            } else {
-                builder.add_residual_block(2 * p.object.len(), &[right_block, b, rig_block]);
-            }
-            b
-        })
-        .collect();
-    let problem = builder
-        .build()
-        .map_err(|e| StereoError::RigInitialization(e.to_string()))?;
-    let (residuals, free) = (problem.num_residuals(), problem.num_free_parameters());
-    if residuals <= free {
-        return Err(StereoError::TooFewObservations {
-            residuals,
-            parameters: free,
-        });
-    }
-    let mut x = vec![0.0; problem.num_parameters()];
-    cameras
-        .0
-        .write_params(problem.block_mut(&mut x, left_block));
-    cameras
-        .1
-        .write_params(problem.block_mut(&mut x, right_block));
-    problem
-        .block_mut(&mut x, rig_block)
-        .copy_from_slice(rig0.to_params::<P>().as_slice());
-    for (pose, &b) in left_poses.iter().zip(&pose_blocks) {
-        problem
-            .block_mut(&mut x, b)
-            .copy_from_slice(pose.to_params::<P>().as_slice());
-    }
-    let points_per_camera: usize = pairs.iter().map(|p| p.object.len()).sum();
-    let total_points = 2 * points_per_camera;
-
-    let mut solver = Solver::new(problem, options.solver.clone())?;
-    let initial_cost = residual_costs(&cost, solver.problem(), &x)?;
-    let initial_rms = (initial_cost.iter().sum::<f64>() / total_points as f64).sqrt();
-    let report = solver.solve(&cost, &mut x)?;
-    let joint_done = Instant::now();
-    let covariance = solver.covariance(&cost, &x)?;
-    let problem = solver.problem();
-
-    let left_params = problem.block(&x, left_block);
-    let left_camera = cost.left_camera(left_params);
-    let right_camera = cost.right_camera(problem.block(&x, right_block), left_params);
-    let costs = residual_costs(&cost, problem, &x)?;
-    let names = camera_param_names::<D>();
-    let estimate = |camera: Camera<D>,
-                    block: ParameterBlockId,
-                    fixed: &[usize],
-                    aspect: Option<f64>,
-                    size: ImageSize,
-                    offset: usize| {
-        let std = covariance.standard_deviations(block);
-        let mut intrinsics_std = [std[0], std[1], std[2], std[3]];
-        if let Some(r) = aspect {
-            intrinsics_std[1] = intrinsics_std[0] / r;
-        }
-        let sum: f64 = costs.iter().skip(offset).step_by(2).sum();
-        CameraEstimate {
-            camera,
-            intrinsics_std,
-            distortion_std: std[4..].to_vec(),
-            fixed_parameters: fixed.iter().map(|&i| names[i].to_string()).collect(),
-            image_size: size,
-            rms: (sum / points_per_camera as f64).sqrt(),
-        }
-    };
-    let left = estimate(
-        left_camera,
-        left_block,
-        &left_fixed,
-        coupling.left_aspect,
-        sizes.0,
-        0,
-    );
-    let mut right = estimate(
-        right_camera,
-        right_block,
-        &right_fixed,
-        coupling.right_aspect,
-        sizes.1,
-        1,
-    );
-    if options.same_focal_length {
-        right.intrinsics_std[0] = left.intrinsics_std[0];
-        right.intrinsics_std[1] = left.intrinsics_std[1];
-    }
-
-    let rig_params: [f64; 6] = problem.block(&x, rig_block).try_into().unwrap_or([0.0; 6]);
-    let rig = Pose::from_params::<P>(&Vector6::from(rig_params));
-    let rig_std: [f64; 6] = covariance
-        .standard_deviations(rig_block)
-        .try_into()
-        .unwrap_or([0.0; 6]);
-    let essential = skew(&rig.translation) * rig.rotation;
-    let fundamental = fundamental_matrix(&left.camera, &right.camera, &essential);
-
-    let pair_results = kept
-        .iter()
-        .zip(&pairs)
-        .zip(&pose_blocks)
-        .enumerate()
-        .map(|(k, ((&index, data), &b))| {
-            let params: [f64; 6] = problem.block(&x, b).try_into().unwrap_or([0.0; 6]);
-            let n = data.object.len() as f64;
-            let p = &observations.pairs[index];
-            PairResult {
-                index,
-                names: (p.left.name.clone(), p.right.name.clone()),
-                left_pose: Pose::from_params::<P>(&Vector6::from(params)),
-                pose_params: params,
-                pose_std: covariance
-                    .standard_deviations(b)
-                    .try_into()
-                    .unwrap_or([0.0; 6]),
-                rms_left: (costs[2 * k] / n).sqrt(),
-                rms_right: (costs[2 * k + 1] / n).sqrt(),
-                num_points: data.object.len(),
-            }
-        })
-        .collect();
-    let result = StereoCalibration {
-        left,
-        right,
-        rig,
-        rig_params,
-        rig_std,
-        rotation: if P::NAME == AxisAngle::NAME {
-            RotationKind::AxisAngle
-        } else {
-            RotationKind::EulerXyz
-        },
-        essential,
-        fundamental,
-        baseline: rig.translation.norm(),
-        rms: (costs.iter().sum::<f64>() / total_points as f64).sqrt(),
-        pairs: pair_results,
-        skipped_pairs: skipped,
-        residual_variance: covariance.residual_variance,
-        initial_rig: rig0,
-        initial_rms,
-        solver: report,
-        elapsed: start.elapsed(),
-        stage_times: [
-            single_times[0],
-            single_times[1],
-            joint_done - joint_start,
-            joint_done.elapsed(),
-        ],
-    };
-    check_finite(&result)?;
-    Ok(result)
-}
-
 /// `F = K_R^-T E K_L^-1`, scaled so that `F[2][2] = 1` (OpenCV's normalization) unless that entry
 /// is (nearly) zero.
-fn fundamental_matrix<D: LensDistortion>(
-    left: &Camera<D>,
-    right: &Camera<D>,
+fn fundamental_matrix(
+    left: &AnyCamera,
+    right: &AnyCamera,
     essential: &Matrix3<f64>,
 ) -> Matrix3<f64> {
-    let kl = left
-        .intrinsics
-        .matrix()
-        .try_inverse()
-        .unwrap_or_else(Matrix3::zeros);
-    let kr = right
-        .intrinsics
-        .matrix()
-        .try_inverse()
-        .unwrap_or_else(Matrix3::zeros);
+    let kl = left.matrix().try_inverse().unwrap_or_else(Matrix3::zeros);
+    let kr = right.matrix().try_inverse().unwrap_or_else(Matrix3::zeros);
     let f = kr.transpose() * essential * kl;
     let scale = f[(2, 2)];
     if scale.abs() > 1e-12 * f.norm() {
@@ -445,48 +305,83 @@ fn fundamental_matrix<D: LensDistortion>(
     }
 }
 
-/// Squared residual norm of every residual block.
-fn residual_costs<C: CostFunction>(
-    cost: &C,
-    problem: &lm_solver::Problem,
-    x: &[f64],
-) -> Result<Vec<f64>, StereoError> {
-    let mut buffer = Vec::new();
-    (0..problem.num_residual_blocks())
-        .map(|r| {
-            let id = ResidualBlockId(r);
-            buffer.resize(problem.residual_dim(id), 0.0);
-            let params: Vec<&[f64]> = problem
-                .residual_blocks_of(id)
-                .map(|b| problem.block(x, b))
-                .collect();
-            cost.evaluate(id, &params, &mut buffer, None)
-                .map_err(|e| StereoError::Diverged(e.message))?;
-            Ok(buffer.iter().map(|v| v * v).sum())
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    observations: &StereoObservations,
+    kept: &[usize],
+    skipped: Vec<SkippedPair>,
+    problem: &JointProblem,
+    solution: JointSolution,
+    rig0: Pose,
+    times: [std::time::Duration; 3],
+    start: Instant,
+) -> Result<StereoCalibration, StereoError> {
+    let squared: Vec<f64> = solution
+        .residuals
+        .iter()
+        .map(|e| e.iter().map(|v| v.norm_squared()).sum())
+        .collect();
+    let points: Vec<usize> = solution.residuals.iter().map(Vec::len).collect();
+    let estimate = |c: usize, name: &str| {
+        let std = &solution.camera_std[c];
+        let (sum, n) = (0..squared.len())
+            .filter(|&o| problem.observations[o].camera == c)
+            .fold((0.0, 0), |(s, n), o| (s + squared[o], n + points[o]));
+        let spec = &problem.cameras[c];
+        let names = camera_param_names(spec.model());
+        CameraEstimate {
+            name: name.into(),
+            camera: solution.cameras[c].clone(),
+            image_size: spec.image_size,
+            intrinsics_std: [std[0], std[1], std[2], std[3]],
+            distortion_std: std[4..].to_vec(),
+            fixed_parameters: spec.fixed.iter().map(|&i| names[i].to_string()).collect(),
+            rms: (sum / n.max(1) as f64).sqrt(),
+            num_points: n,
+        }
+    };
+    let (left, right) = (estimate(0, "left"), estimate(1, "right"));
+    let rig = solution.rig[1];
+    let essential = skew(&rig.translation) * rig.rotation;
+    let fundamental = fundamental_matrix(&left.camera, &right.camera, &essential);
+    let pairs = kept
+        .iter()
+        .enumerate()
+        .map(|(k, &index)| {
+            let p = &observations.pairs[index];
+            PairResult {
+                index,
+                names: (p.left.name.clone(), p.right.name.clone()),
+                left_pose: solution.frames[k],
+                pose_params: solution.frame_params[k],
+                pose_std: solution.frame_std[k],
+                rms_left: (squared[2 * k] / points[2 * k] as f64).sqrt(),
+                rms_right: (squared[2 * k + 1] / points[2 * k + 1] as f64).sqrt(),
+                num_points: points[2 * k],
+            }
         })
-        .collect()
-}
-
-fn check_finite<D: LensDistortion>(r: &StereoCalibration<D>) -> Result<(), StereoError> {
-    let mut values = vec![r.rms, r.baseline, r.residual_variance];
-    for c in [&r.left, &r.right] {
-        let k = &c.camera.intrinsics;
-        values.extend([k.fx, k.fy, k.cx, k.cy]);
-        values.extend(c.intrinsics_std);
-        values.extend(&c.distortion_std);
-    }
-    values.extend(r.rig_params);
-    values.extend(r.rig_std);
-    values.extend(r.fundamental.iter());
-    for p in &r.pairs {
-        values.extend(p.pose_params);
-        values.extend(p.pose_std);
-    }
-    if values.iter().all(|v| v.is_finite()) {
-        Ok(())
-    } else {
-        Err(StereoError::Diverged(
-            "a parameter or its uncertainty is not finite".into(),
-        ))
-    }
+        .collect();
+    let total_points: usize = points.iter().sum();
+    let total_squared: f64 = squared.iter().sum();
+    let joint = solution.report.total_time;
+    Ok(StereoCalibration {
+        left,
+        right,
+        rig,
+        rig_params: solution.rig_params[1],
+        rig_std: solution.rig_std[1],
+        rotation: solution.rotation,
+        essential,
+        fundamental,
+        baseline: rig.translation.norm(),
+        rms: (total_squared / total_points as f64).sqrt(),
+        pairs,
+        skipped_pairs: skipped,
+        residual_variance: solution.residual_variance,
+        initial_rig: rig0,
+        initial_rms: (2.0 * solution.report.initial_cost / total_points as f64).sqrt(),
+        solver: solution.report,
+        elapsed: start.elapsed(),
+        stage_times: [times[0], times[1], joint, times[2].saturating_sub(joint)],
+    })
 }

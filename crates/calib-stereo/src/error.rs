@@ -24,6 +24,7 @@ impl std::fmt::Display for Side {
 /// What can go wrong in a stereo calibration. Errors about the input name the pair (index in
 /// the input, from 0) and the camera.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum StereoError {
     /// The pair list is empty (or every pair was skipped).
     #[error("no usable pairs{}", if *.skipped > 0 { format!(" ({} skipped as bad)", .skipped) } else { String::new() })]
@@ -43,24 +44,6 @@ pub enum StereoError {
         width: u32,
         /// Height.
         height: u32,
-    },
-    /// The two cameras saw a different number of points in a pair.
-    #[error("pair {pair}: {left} points in the left view but {right} in the right view")]
-    PairPointCountMismatch {
-        /// Pair index.
-        pair: usize,
-        /// Left count.
-        left: usize,
-        /// Right count.
-        right: usize,
-    },
-    /// The board points of a pair differ between the two cameras.
-    #[error("pair {pair}, point {point}: the left and right views have different board points")]
-    ObjectPointsDiffer {
-        /// Pair index.
-        pair: usize,
-        /// Point index.
-        point: usize,
     },
     /// A view of a pair failed the single-camera checks.
     #[error("pair {pair}, {camera} view: {source}")]
@@ -100,6 +83,9 @@ pub enum StereoError {
     /// The parameters are not all determined by the data.
     #[error("the calibration is not unique: {0}")]
     Unobservable(#[from] CovarianceError),
+    /// The joint optimization failed (messages name the camera and pair).
+    #[error("{0}")]
+    Joint(CalibrationError),
     /// A non-finite value came out of the optimization.
     #[error("the optimization diverged ({0})")]
     Diverged(String),

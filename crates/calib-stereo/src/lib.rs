@@ -1,19 +1,18 @@
 //! Stereo rig calibration from pairs of views of a planar target.
 //!
 //! Both cameras see the board at the same time in each pair. [`calibrate_stereo`] estimates both
-//! cameras (intrinsics and Brown-Conrady distortion), the board pose in the left camera for every
-//! pair and the rig transform `X_right = R X_left + T`, with standard deviations, the essential
-//! and fundamental matrices and the baseline:
+//! cameras (intrinsics and distortion of any lens model), the board pose in the left camera for
+//! every pair and the rig transform `X_right = R X_left + T`, with standard deviations, the
+//! essential and fundamental matrices and the baseline:
 //!
-//! 1. each camera is calibrated alone (crate `calib-single`),
+//! 1. each camera is calibrated alone (the single-camera pipeline of `calib_core`),
 //! 2. the initial rig comes from the per-pair poses: `R_R = R_s R_L` stacked over all pairs and
 //!    solved by least squares then made a rotation by SVD, `T` the mean of `t_R - R_s t_L`,
-//! 3. Levenberg-Marquardt over `22 + 6M` parameters: left camera (8), right camera (8), rig (6)
-//!    and one left pose per pair (6, eliminated by the Schur complement). The right camera's
-//!    residuals depend on the left pose and the rig through the chain rule of
-//!    `camera_model::pose::composition`.
+//! 3. Levenberg-Marquardt over both cameras, the rig (6) and one left pose per pair (6,
+//!    eliminated by the Schur complement), with the engine's one cost for any number of cameras.
 //!
-//! Walk-through with the Jacobian's block pattern: `docs/calib-stereo.md`.
+//! This crate is a thin front end: the stereo file format, options, the epipolar geometry and
+//! the result. Walk-through with the Jacobian's block pattern: `docs/calib-stereo.md`.
 //!
 //! ```
 //! use calib_stereo::{StereoOptions, calibrate_stereo, synthetic};
@@ -30,17 +29,16 @@
 #![deny(missing_docs)]
 
 pub mod calibrate;
-pub mod cost;
 pub mod error;
 pub mod observations;
 pub mod options;
 pub mod result;
-pub mod rig;
 pub mod synthetic;
 
-pub use calibrate::{calibrate_stereo, calibrate_stereo_with_model};
+pub use calib_core::rig;
+pub use calib_core::rig::RigInit;
+pub use calibrate::{calibrate_stereo, stereo_problem};
 pub use error::{Side, StereoError};
 pub use observations::{StereoObservations, StereoPair};
 pub use options::StereoOptions;
 pub use result::{CameraEstimate, PairResult, SkippedPair, StereoCalibration};
-pub use rig::RigInit;

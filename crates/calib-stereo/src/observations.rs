@@ -10,10 +10,11 @@
 //! ```
 //!
 //! `right_image_size` is optional (default: `image_size`). Instead of `object_points` a pair may
-//! give `left_object_points` and `right_object_points`, which must then be equal.
+//! give `left_object_points` and `right_object_points`: each camera may then see a different part
+//! of the board (a corner hidden in one view, a partial ChArUco board), as long as both lists use
+//! the same board coordinates.
 
 use crate::error::{Side, StereoError};
-use calib_single::observations::read_text;
 use calib_single::{ImageSize, Observations, ReadError, View};
 use nalgebra::{Point2, Point3};
 use serde::Deserialize;
@@ -77,9 +78,18 @@ impl StereoObservations {
         Self::parse(text, "<string>")
     }
 
-    /// Reads a JSON stereo observation file.
+    /// Reads a JSON stereo observation file (at most
+    /// [`calib_core::io::DEFAULT_MAX_INPUT_BYTES`]).
     pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        let (text, name) = read_text(path.as_ref())?;
+        Self::read_bounded(path, calib_core::io::DEFAULT_MAX_INPUT_BYTES)
+    }
+
+    /// Reads a JSON stereo observation file of at most `max_bytes` bytes.
+    pub fn read_bounded(
+        path: impl AsRef<std::path::Path>,
+        max_bytes: u64,
+    ) -> Result<Self, ReadError> {
+        let (text, name) = calib_core::io::read_text(path.as_ref(), max_bytes)?;
         Self::parse(&text, &name)
     }
 
@@ -117,19 +127,33 @@ impl StereoObservations {
         })
     }
 
-    /// The JSON form (the format [`StereoObservations::from_json`] reads).
+    /// The JSON form (the format [`StereoObservations::from_json`] reads): `object_points` when
+    /// both views share their board points, `left_object_points` and `right_object_points`
+    /// otherwise.
     pub fn to_json_value(&self) -> serde_json::Value {
+        let points3 = |v: &View| {
+            v.object_points
+                .iter()
+                .map(|x| [x.x, x.y, x.z])
+                .collect::<Vec<_>>()
+        };
         let pairs: Vec<serde_json::Value> = self
             .pairs
             .iter()
             .map(|p| {
-                serde_json::json!({
+                let mut pair = serde_json::json!({
                     "left_image": p.left.name,
                     "right_image": p.right.name,
-                    "object_points": p.left.object_points.iter().map(|x| [x.x, x.y, x.z]).collect::<Vec<_>>(),
                     "left_points": p.left.image_points.iter().map(|x| [x.x, x.y]).collect::<Vec<_>>(),
                     "right_points": p.right.image_points.iter().map(|x| [x.x, x.y]).collect::<Vec<_>>(),
-                })
+                });
+                if p.left.object_points == p.right.object_points {
+                    pair["object_points"] = serde_json::json!(points3(&p.left));
+                } else {
+                    pair["left_object_points"] = serde_json::json!(points3(&p.left));
+                    pair["right_object_points"] = serde_json::json!(points3(&p.right));
+                }
+                pair
             })
             .collect();
         let mut out = serde_json::json!({ "pairs": pairs });
@@ -178,8 +202,8 @@ impl StereoObservations {
     }
 }
 
-/// Checks one pair: each view passes the single-camera checks, both views have the same number
-/// of points and the same board points.
+/// Checks one pair: each view passes the single-camera checks (counts, finiteness, planarity).
+/// The two views may show different parts of the board.
 pub fn check_pair(index: usize, pair: &StereoPair) -> Result<(), StereoError> {
     for (camera, view) in [(Side::Left, &pair.left), (Side::Right, &pair.right)] {
         calib_single::observations::check_view(index, view).map_err(|source| {
@@ -189,26 +213,6 @@ pub fn check_pair(index: usize, pair: &StereoPair) -> Result<(), StereoError> {
                 source,
             }
         })?;
-    }
-    let (l, r) = (
-        pair.left.object_points.len(),
-        pair.right.object_points.len(),
-    );
-    if l != r {
-        return Err(StereoError::PairPointCountMismatch {
-            pair: index,
-            left: l,
-            right: r,
-        });
-    }
-    if let Some(point) = pair
-        .left
-        .object_points
-        .iter()
-        .zip(&pair.right.object_points)
-        .position(|(a, b)| a != b)
-    {
-        return Err(StereoError::ObjectPointsDiffer { pair: index, point });
     }
     Ok(())
 }
@@ -241,23 +245,6 @@ mod tests {
     #[test]
     fn pair_checks_name_the_pair() {
         let mut obs = StereoObservations::from_json(PAIR).unwrap();
-        obs.pairs[0].right.object_points[2].x = 5.0;
-        assert_eq!(
-            check_pair(3, &obs.pairs[0]),
-            Err(StereoError::ObjectPointsDiffer { pair: 3, point: 2 })
-        );
-        let mut obs = StereoObservations::from_json(PAIR).unwrap();
-        obs.pairs[0].right.object_points.push(Point3::origin());
-        obs.pairs[0].right.image_points.push(Point2::origin());
-        assert_eq!(
-            check_pair(1, &obs.pairs[0]),
-            Err(StereoError::PairPointCountMismatch {
-                pair: 1,
-                left: 4,
-                right: 5
-            })
-        );
-        let mut obs = StereoObservations::from_json(PAIR).unwrap();
         obs.pairs[0].left.image_points.pop();
         assert!(matches!(
             check_pair(2, &obs.pairs[0]),
@@ -273,15 +260,16 @@ mod tests {
     }
 
     #[test]
-    fn separate_object_point_lists_are_accepted_and_compared() {
+    fn partial_views_are_accepted_and_written_back() {
         let text = PAIR.replace(
-            r#""object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]]"#,
-            r#""left_object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]], "right_object_points": [[0,0,0],[1,0,0],[0,2,0],[1,1,0]]"#,
-        );
+            r#""object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]],"#,
+            r#""left_object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]], "right_object_points": [[0,0,0],[1,0,0],[0,1,0],[1,1,0],[2,0,0]],"#,
+        )
+        .replace(r#""right_points": [[2,2],[4,4],[6,6],[8,9]]"#, r#""right_points": [[2,2],[4,4],[6,6],[8,9],[9,9]]"#);
         let obs = StereoObservations::from_json(&text).unwrap();
-        assert_eq!(
-            check_pair(0, &obs.pairs[0]),
-            Err(StereoError::ObjectPointsDiffer { pair: 0, point: 2 })
-        );
+        assert!(check_pair(0, &obs.pairs[0]).is_ok());
+        assert_eq!(obs.pairs[0].right.object_points.len(), 5);
+        let again = StereoObservations::from_json(&obs.to_json_value().to_string()).unwrap();
+        assert_eq!(again, obs);
     }
 }

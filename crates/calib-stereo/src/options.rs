@@ -1,6 +1,6 @@
 //! Options of the stereo calibration.
 
-use crate::rig::RigInit;
+use calib_core::rig::RigInit;
 use calib_single::{CalibrationOptions, default_solver_options};
 use camera_model::{Pose, RotationKind};
 use lm_solver::SolverOptions;
@@ -9,6 +9,7 @@ use lm_solver::SolverOptions;
 /// the single-camera calibrations, like OpenCV's `stereoCalibrate` with `CALIB_FIX_K3` and no
 /// `CALIB_FIX_INTRINSIC`.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct StereoOptions {
     /// Options of the left camera: they drive its initial single-camera calibration, and the
     /// parameters they hold fixed (principal point, focal length, aspect ratio, tangential or

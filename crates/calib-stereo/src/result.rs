@@ -1,41 +1,30 @@
-//! The stereo calibration result, its summary and its JSON form (`docs/formats.md`).
+//! The stereo calibration result, its summary and its JSON form (`docs/formats.md`). The result
+//! is a serde type: [`StereoCalibration::to_json`] writes it and [`StereoCalibration::from_json`]
+//! reads it back.
 
-use calib_single::ImageSize;
-use calib_single::result::{distortion_params, named_distortion_json, write_camera_summary};
-use camera_model::{
-    AxisAngle, Camera, EulerXyz, LensDistortion, Pose, RotationKind, RotationParameterization,
-};
+pub use calib_core::result::CameraEstimate;
+use calib_core::result::seconds;
+use camera_model::{AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization};
 use lm_solver::SolverReport;
 use nalgebra::Matrix3;
-use serde_json::{Value, json};
+use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::time::Duration;
 
-/// One camera of the rig with its uncertainties.
-#[derive(Debug, Clone)]
-pub struct CameraEstimate<D> {
-    /// Intrinsics and distortion.
-    pub camera: Camera<D>,
-    /// Standard deviations of `fx, fy, cx, cy` (zero for fixed ones).
-    pub intrinsics_std: [f64; 4],
-    /// Standard deviations of the distortion coefficients (zero for fixed ones).
-    pub distortion_std: Vec<f64>,
-    /// Names of the parameters held fixed.
-    pub fixed_parameters: Vec<String>,
-    /// Image size.
-    pub image_size: ImageSize,
-    /// RMS reprojection error of this camera's points, pixels.
-    pub rms: f64,
-}
+/// The `format` key of stereo result files.
+pub const FORMAT: &str = "calib-stereo-result/2";
 
 /// The estimate for one pair.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PairResult {
     /// Index of the pair in the input.
     pub index: usize,
-    /// Names of the two views.
+    /// Names of the two views (`left_image`, `right_image` in files).
+    #[serde(with = "names")]
+    #[serde(flatten)]
     pub names: (String, String),
     /// Board-to-left-camera pose.
+    #[serde(flatten)]
     pub left_pose: Pose,
     /// Its parameters `[rho, t]` in the calibration's rotation parameterization.
     pub pose_params: [f64; 6],
@@ -45,12 +34,36 @@ pub struct PairResult {
     pub rms_left: f64,
     /// RMS of the right view, pixels.
     pub rms_right: f64,
-    /// Points per view.
+    /// Points per view (the left view's).
+    #[serde(rename = "points")]
     pub num_points: usize,
 }
 
+mod names {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Serialize, Deserialize)]
+    struct Names {
+        left_image: String,
+        right_image: String,
+    }
+
+    pub fn serialize<S: Serializer>(n: &(String, String), s: S) -> Result<S::Ok, S::Error> {
+        Names {
+            left_image: n.0.clone(),
+            right_image: n.1.clone(),
+        }
+        .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<(String, String), D::Error> {
+        let n = Names::deserialize(d)?;
+        Ok((n.left_image, n.right_image))
+    }
+}
+
 /// A pair left out by `skip_bad_pairs`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SkippedPair {
     /// Index in the input.
     pub index: usize,
@@ -59,12 +72,12 @@ pub struct SkippedPair {
 }
 
 /// A calibrated stereo rig.
-#[derive(Debug, Clone)]
-pub struct StereoCalibration<D> {
+#[derive(Debug, Clone, PartialEq)]
+pub struct StereoCalibration {
     /// The left (reference) camera.
-    pub left: CameraEstimate<D>,
+    pub left: CameraEstimate,
     /// The right camera.
-    pub right: CameraEstimate<D>,
+    pub right: CameraEstimate,
     /// Left camera to right camera: `X_right = R X_left + T` (OpenCV's `R`, `T`).
     pub rig: Pose,
     /// The rig's parameters `[rho, T]` in `rotation`'s parameterization.
@@ -80,7 +93,7 @@ pub struct StereoCalibration<D> {
     pub fundamental: Matrix3<f64>,
     /// `|T|`, board units.
     pub baseline: f64,
-    /// RMS over all points of both cameras, pixels: `sqrt(sum |e|^2 / (2 x points per camera))`.
+    /// RMS over all points of both cameras, pixels.
     pub rms: f64,
     /// One entry per used pair.
     pub pairs: Vec<PairResult>,
@@ -101,98 +114,160 @@ pub struct StereoCalibration<D> {
     pub stage_times: [Duration; 4],
 }
 
-fn matrix_json(m: &Matrix3<f64>) -> Value {
-    json!([
-        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
-        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
-        [m[(2, 0)], m[(2, 1)], m[(2, 2)]]
-    ])
+fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
 }
 
-impl<D: LensDistortion> CameraEstimate<D> {
-    fn to_json(&self) -> Value {
-        let k = &self.camera.intrinsics;
-        let named = named_distortion_json::<D>;
-        let d = distortion_params(&self.camera);
-        let s = &self.intrinsics_std;
-        json!({
-            "image_size": [self.image_size.width, self.image_size.height],
-            "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
-            "distortion": named(&d),
-            "camera_matrix": matrix_json(&k.matrix()),
-            "dist_coeffs": d,
-            "std": { "fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3], "distortion": named(&self.distortion_std) },
-            "fixed_parameters": self.fixed_parameters,
-            "rms": self.rms,
-        })
-    }
-
-    fn summary_lines(&self, name: &str, out: &mut String) {
-        let _ = writeln!(out, "  {name} camera (RMS {:.5} px):", self.rms);
-        write_camera_summary(
-            out,
-            "    ",
-            &self.camera,
-            &self.intrinsics_std,
-            &self.distortion_std,
-            &self.fixed_parameters,
-        );
-    }
+fn from_rows(r: &[[f64; 3]; 3]) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| r[i][j])
 }
 
-impl<D: LensDistortion> StereoCalibration<D> {
-    /// The JSON form of the result.
-    pub fn to_json(&self) -> Value {
+#[derive(Serialize, Deserialize)]
+struct StageSeconds {
+    #[serde(with = "seconds")]
+    left_single_camera: Duration,
+    #[serde(with = "seconds")]
+    right_single_camera: Duration,
+    #[serde(with = "seconds")]
+    joint_optimization: Duration,
+    #[serde(with = "seconds")]
+    uncertainty: Duration,
+}
+
+#[derive(Serialize, Deserialize)]
+struct InitialJson {
+    rms: f64,
+    #[serde(rename = "R")]
+    r: [[f64; 3]; 3],
+    #[serde(rename = "T")]
+    t: [f64; 3],
+}
+
+#[derive(Serialize, Deserialize)]
+struct StereoJson {
+    format: String,
+    #[serde(default)]
+    pixel_convention: String,
+    #[serde(default)]
+    rig_convention: String,
+    rms: f64,
+    elapsed_seconds: f64,
+    stage_seconds: StageSeconds,
+    num_pairs: usize,
+    left: CameraEstimate,
+    right: CameraEstimate,
+    #[serde(rename = "R")]
+    r: [[f64; 3]; 3],
+    rotation_vector: [f64; 3],
+    euler_xyz: [f64; 3],
+    rotation_angle_deg: f64,
+    #[serde(rename = "T")]
+    t: [f64; 3],
+    baseline: f64,
+    rig_parameterization: String,
+    rig_params: [f64; 6],
+    rig_std: [f64; 6],
+    #[serde(rename = "E")]
+    e: [[f64; 3]; 3],
+    #[serde(rename = "F")]
+    f: [[f64; 3]; 3],
+    residual_variance: f64,
+    initial: InitialJson,
+    pairs: Vec<PairResult>,
+    skipped_pairs: Vec<SkippedPair>,
+    solver: SolverReport,
+}
+
+impl StereoCalibration {
+    fn to_file(&self) -> StereoJson {
         let r = &self.rig;
         let w = AxisAngle::from_matrix(&r.rotation);
         let e = EulerXyz::from_matrix(&r.rotation);
-        json!({
-            "format": "calib-stereo-result/1",
-            "pixel_convention": "OpenCV: (0,0) is the centre of the top-left pixel, x right, y down",
-            "rig_convention": "X_right = R X_left + T; poses map board to left camera",
-            "distortion_model": D::NAME,
-            "rms": self.rms,
-            "elapsed_seconds": self.elapsed.as_secs_f64(),
-            "stage_seconds": {
-                "left_single_camera": self.stage_times[0].as_secs_f64(),
-                "right_single_camera": self.stage_times[1].as_secs_f64(),
-                "joint_optimization": self.stage_times[2].as_secs_f64(),
-                "uncertainty": self.stage_times[3].as_secs_f64(),
+        let t = r.translation;
+        let t0 = self.initial_rig.translation;
+        StereoJson {
+            format: FORMAT.into(),
+            pixel_convention: "OpenCV: (0,0) is the centre of the top-left pixel, x right, y down"
+                .into(),
+            rig_convention: "X_right = R X_left + T; poses map board to left camera".into(),
+            rms: self.rms,
+            elapsed_seconds: self.elapsed.as_secs_f64(),
+            stage_seconds: StageSeconds {
+                left_single_camera: self.stage_times[0],
+                right_single_camera: self.stage_times[1],
+                joint_optimization: self.stage_times[2],
+                uncertainty: self.stage_times[3],
             },
-            "num_pairs": self.pairs.len(),
-            "left": self.left.to_json(),
-            "right": self.right.to_json(),
-            "R": matrix_json(&r.rotation),
-            "rotation_vector": [w.x, w.y, w.z],
-            "euler_xyz": [e.x, e.y, e.z],
-            "rotation_angle_deg": w.norm().to_degrees(),
-            "T": [r.translation.x, r.translation.y, r.translation.z],
-            "baseline": self.baseline,
-            "rig_parameterization": self.rotation.name(),
-            "rig_params": self.rig_params,
-            "rig_std": self.rig_std,
-            "E": matrix_json(&self.essential),
-            "F": matrix_json(&self.fundamental),
-            "residual_variance": self.residual_variance,
-            "initial": {
-                "rms": self.initial_rms,
-                "R": matrix_json(&self.initial_rig.rotation),
-                "T": [self.initial_rig.translation.x, self.initial_rig.translation.y, self.initial_rig.translation.z],
+            num_pairs: self.pairs.len(),
+            left: self.left.clone(),
+            right: self.right.clone(),
+            r: rows(&r.rotation),
+            rotation_vector: [w.x, w.y, w.z],
+            euler_xyz: [e.x, e.y, e.z],
+            rotation_angle_deg: w.norm().to_degrees(),
+            t: [t.x, t.y, t.z],
+            baseline: self.baseline,
+            rig_parameterization: self.rotation.name().into(),
+            rig_params: self.rig_params,
+            rig_std: self.rig_std,
+            e: rows(&self.essential),
+            f: rows(&self.fundamental),
+            residual_variance: self.residual_variance,
+            initial: InitialJson {
+                rms: self.initial_rms,
+                r: rows(&self.initial_rig.rotation),
+                t: [t0.x, t0.y, t0.z],
             },
-            "pairs": self.pairs.iter().map(|p| {
-                let mut pose = calib_single::result::pose_json(&p.left_pose);
-                pose["index"] = json!(p.index);
-                pose["left_image"] = json!(p.names.0);
-                pose["right_image"] = json!(p.names.1);
-                pose["rms_left"] = json!(p.rms_left);
-                pose["rms_right"] = json!(p.rms_right);
-                pose["points"] = json!(p.num_points);
-                pose["pose_params"] = json!(p.pose_params);
-                pose["pose_std"] = json!(p.pose_std);
-                pose
-            }).collect::<Vec<_>>(),
-            "skipped_pairs": self.skipped_pairs.iter().map(|s| json!({"index": s.index, "reason": s.reason})).collect::<Vec<_>>(),
-            "solver": calib_single::result::solver_json(&self.solver),
+            pairs: self.pairs.clone(),
+            skipped_pairs: self.skipped_pairs.clone(),
+            solver: self.solver.clone(),
+        }
+    }
+
+    /// The JSON form of the result (schema in `docs/formats.md`).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self.to_file()).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// Reads a result written by [`StereoCalibration::to_json`].
+    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
+        let j: StereoJson = serde_json::from_value(value).map_err(|e| e.to_string())?;
+        if !j.format.starts_with("calib-stereo-result/") {
+            return Err(format!("not a stereo result (format '{}')", j.format));
+        }
+        let rotation = [
+            RotationKind::EulerXyz,
+            RotationKind::AxisAngle,
+            RotationKind::So3,
+        ]
+        .into_iter()
+        .find(|k| k.name() == j.rig_parameterization)
+        .ok_or_else(|| format!("unknown rotation '{}'", j.rig_parameterization))?;
+        let rig_rotation = from_rows(&j.r);
+        Ok(StereoCalibration {
+            left: j.left,
+            right: j.right,
+            rig: Pose::new(rig_rotation, j.t.into()),
+            rig_params: j.rig_params,
+            rig_std: j.rig_std,
+            rotation,
+            essential: from_rows(&j.e),
+            fundamental: from_rows(&j.f),
+            baseline: j.baseline,
+            rms: j.rms,
+            pairs: j.pairs,
+            skipped_pairs: j.skipped_pairs,
+            residual_variance: j.residual_variance,
+            initial_rig: Pose::new(from_rows(&j.initial.r), j.initial.t.into()),
+            initial_rms: j.initial.rms,
+            solver: j.solver,
+            elapsed: Duration::try_from_secs_f64(j.elapsed_seconds.max(0.0)).unwrap_or_default(),
+            stage_times: [
+                j.stage_seconds.left_single_camera,
+                j.stage_seconds.right_single_camera,
+                j.stage_seconds.joint_optimization,
+                j.stage_seconds.uncertainty,
+            ],
         })
     }
 
@@ -204,8 +279,10 @@ impl<D: LensDistortion> StereoCalibration<D> {
             "Stereo calibration ({} pairs), uncertainties +- 3 sigma:",
             self.pairs.len()
         );
-        self.left.summary_lines("left", &mut out);
-        self.right.summary_lines("right", &mut out);
+        for (name, camera) in [("left", &self.left), ("right", &self.right)] {
+            let _ = writeln!(out, "  {name} camera (RMS {:.5} px):", camera.rms);
+            camera.write_summary(&mut out, "    ");
+        }
         let w = AxisAngle::from_matrix(&self.rig.rotation);
         let t = self.rig.translation;
         let s = &self.rig_std;

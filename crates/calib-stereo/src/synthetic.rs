@@ -3,10 +3,11 @@
 use crate::observations::{StereoObservations, StereoPair};
 use calib_single::synthetic::{
     SyntheticConfig, SyntheticError, board_points, check_config, project_inside, random_pose,
+    true_camera,
 };
 use calib_single::{ImageSize, View};
-use camera_model::{BrownConrady, Camera, EulerXyz, Intrinsics, Pose, RotationParameterization};
-use lm_solver::test_problems::Rng;
+use camera_model::{AnyCamera, CameraModel, EulerXyz, Intrinsics, Pose, RotationParameterization};
+use lm_solver::Rng;
 use nalgebra::{Point2, Vector3};
 
 /// What to generate. Board, noise, tilt, view count, seed and the left camera come from `left`.
@@ -14,10 +15,12 @@ use nalgebra::{Point2, Vector3};
 pub struct SyntheticStereoConfig {
     /// Left camera, board, number of pairs, noise, tilt and seed.
     pub left: SyntheticConfig,
+    /// Right camera lens model.
+    pub right_model: CameraModel,
     /// Right camera intrinsics.
     pub right_intrinsics: Intrinsics,
-    /// Right camera distortion.
-    pub right_distortion: BrownConrady,
+    /// Right camera distortion (the model's coefficients).
+    pub right_distortion: Vec<f64>,
     /// Right image size.
     pub right_image_size: ImageSize,
     /// Left camera to right camera (`X_R = R X_L + T`).
@@ -30,8 +33,9 @@ impl Default for SyntheticStereoConfig {
     fn default() -> Self {
         Self {
             left: SyntheticConfig::default(),
+            right_model: CameraModel::BrownConrady4,
             right_intrinsics: Intrinsics::new(810.0, 805.0, 325.0, 235.0),
-            right_distortion: BrownConrady::new(-0.18, 0.04, -0.0005, 0.0008),
+            right_distortion: vec![-0.18, 0.04, -0.0005, 0.0008],
             right_image_size: ImageSize::new(640, 480),
             rig: Pose::new(
                 EulerXyz::matrix(&Vector3::new(0.01, -0.02, 0.005)),
@@ -47,9 +51,9 @@ pub struct SyntheticStereoSet {
     /// The noisy observations.
     pub observations: StereoObservations,
     /// True left camera.
-    pub left: Camera<BrownConrady>,
+    pub left: AnyCamera,
     /// True right camera.
-    pub right: Camera<BrownConrady>,
+    pub right: AnyCamera,
     /// True rig.
     pub rig: Pose,
     /// True board-to-left-camera pose of each pair.
@@ -64,8 +68,13 @@ pub fn generate_stereo(
     let base = &config.left;
     check_config(base)?;
     let mut rng = Rng::new(base.seed);
-    let left = Camera::new(base.intrinsics, base.distortion);
-    let right = Camera::new(config.right_intrinsics, config.right_distortion);
+    let left = true_camera(base)?;
+    let right = AnyCamera::new(
+        config.right_model,
+        config.right_intrinsics,
+        config.right_distortion.clone(),
+    )
+    .map_err(|e| SyntheticError::Invalid(format!("right camera: {e}")))?;
     let board = board_points(base.board_cols, base.board_rows, base.square);
     let width = (base.board_cols - 1) as f64 * base.square;
     let centre = Vector3::new(

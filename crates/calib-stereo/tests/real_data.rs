@@ -1,11 +1,9 @@
 //! Real stereo observations: the joint calibration must reach the minimum OpenCV 5's
 //! stereoCalibrate (k3 fixed, intrinsics free) reaches. Reference numbers come from the data files.
 
-use calib_stereo::cost::{CameraCoupling, PairData, StereoCost};
-use calib_stereo::{StereoObservations, StereoOptions, calibrate_stereo};
-use camera_model::{AxisAngle, BrownConrady, RotationParameterization};
-use lm_solver::{CostFunction, ResidualBlockId};
-use nalgebra::Matrix3;
+use calib_stereo::{StereoObservations, StereoOptions, calibrate_stereo, stereo_problem};
+use camera_model::{AnyCamera, AxisAngle, CameraModel, Intrinsics, Pose, RotationParameterization};
+use nalgebra::{Matrix3, Vector3};
 use serde_json::Value;
 
 fn data(path: &str) -> String {
@@ -21,52 +19,33 @@ fn rms_at_opencv_solution(obs: &StereoObservations, r: &Value) -> f64 {
     let f = |v: &Value| v.as_f64().unwrap();
     let camera = |c: &Value| {
         let d = &c["dist"];
-        vec![
-            f(&c["fx"]),
-            f(&c["fy"]),
-            f(&c["cx"]),
-            f(&c["cy"]),
-            f(&d[0]),
-            f(&d[1]),
-            f(&d[2]),
-            f(&d[3]),
-        ]
+        AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(f(&c["fx"]), f(&c["fy"]), f(&c["cx"]), f(&c["cy"])),
+            (0..4).map(|i| f(&d[i])).collect(),
+        )
+        .unwrap()
     };
     let (left, right) = (camera(&r["left"]), camera(&r["right"]));
-    let w = AxisAngle::from_matrix(&matrix(&r["R"]));
-    let rig = [w.x, w.y, w.z, f(&r["T"][0]), f(&r["T"][1]), f(&r["T"][2])];
-    let pairs: Vec<PairData> = obs
-        .pairs
-        .iter()
-        .map(|p| PairData {
-            object: p.left.object_points.clone(),
-            left: p.left.image_points.iter().map(|x| x.coords).collect(),
-            right: p.right.image_points.iter().map(|x| x.coords).collect(),
+    let rig = Pose::new(
+        matrix(&r["R"]),
+        Vector3::new(f(&r["T"][0]), f(&r["T"][1]), f(&r["T"][2])),
+    );
+    let poses: Vec<Pose> = (0..obs.pairs.len())
+        .map(|k| {
+            let (rv, tv) = (&r["board_rvecs_left"][k], &r["board_tvecs_left"][k]);
+            Pose::new(
+                AxisAngle::matrix(&Vector3::new(f(&rv[0]), f(&rv[1]), f(&rv[2]))),
+                Vector3::new(f(&tv[0]), f(&tv[1]), f(&tv[2])),
+            )
         })
         .collect();
-    let cost = StereoCost::<BrownConrady, AxisAngle>::new(&pairs, CameraCoupling::default());
-    let (mut sum, mut n) = (0.0, 0);
-    for (k, p) in pairs.iter().enumerate() {
-        let (rv, tv) = (&r["board_rvecs_left"][k], &r["board_tvecs_left"][k]);
-        let pose = [
-            f(&rv[0]),
-            f(&rv[1]),
-            f(&rv[2]),
-            f(&tv[0]),
-            f(&tv[1]),
-            f(&tv[2]),
-        ];
-        let mut res = vec![0.0; 2 * p.object.len()];
-        for (block, params) in [
-            (2 * k, vec![&left[..], &pose[..]]),
-            (2 * k + 1, vec![&right[..], &pose[..], &rig[..]]),
-        ] {
-            cost.evaluate(ResidualBlockId(block), &params, &mut res, None)
-                .unwrap();
-            sum += res.iter().map(|v| v * v).sum::<f64>();
-        }
-        n += 2 * p.object.len();
-    }
+    let problem = stereo_problem(obs, [&left, &right], &poses, rig).unwrap();
+    let errors = calib_core::reprojection_errors(&problem).unwrap();
+    let (sum, n) = errors
+        .iter()
+        .flatten()
+        .fold((0.0, 0), |(s, n), e| (s + e.norm_squared(), n + 1));
     (sum / n as f64).sqrt()
 }
 

@@ -12,8 +12,8 @@ use nalgebra::{Matrix3, Matrix3x6, Point3, Vector3, Vector6};
 ///
 /// In files (serde) a pose is `{"rotation_matrix": [[...], [...], [...]], "rotation_vector":
 /// [...], "euler_xyz": [...], "translation": [...]}` (rows of `R`; the rotation vector and Euler
-/// X-Y-Z angles are for readers); reading takes `rotation_matrix` (projected onto the rotations)
-/// or, if absent, `rotation_vector`.
+/// X-Y-Z angles are for readers); reading takes `rotation_matrix` (as it is if orthonormal to
+/// 1e-12, else projected onto the rotations) or, if absent, `rotation_vector`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
     /// Rotation matrix `R` (world to camera).
@@ -55,9 +55,18 @@ impl<'de> serde::Deserialize<'de> for Pose {
         let j = PoseJson::deserialize(deserializer)?;
         let rotation = match (j.rotation_matrix, j.rotation_vector) {
             (Some(m), _) => {
-                nearest_rotation(&Matrix3::from_fn(|i, k| m[i][k])).ok_or_else(|| {
-                    serde::de::Error::custom("rotation_matrix is not close to a rotation")
-                })?
+                let m = Matrix3::from_fn(|i, k| m[i][k]);
+                // A rotation written by this crate reads back bit for bit; anything else is
+                // projected onto the rotations.
+                let orthonormal = (m.transpose() * m - Matrix3::identity()).norm() < 1e-12
+                    && m.determinant() > 0.0;
+                if orthonormal {
+                    m
+                } else {
+                    nearest_rotation(&m).ok_or_else(|| {
+                        serde::de::Error::custom("rotation_matrix is not close to a rotation")
+                    })?
+                }
             }
             (None, Some(w)) => AxisAngle::matrix(&Vector3::from(w)),
             (None, None) => {

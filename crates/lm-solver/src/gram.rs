@@ -200,6 +200,215 @@ impl<const W: usize> CompactGram<W> {
     }
 }
 
+/// Like [`CompactGram`], for compact rows made of a part of fixed width `F` and a part of width
+/// `N` (entries `0..F` and `F..F + N` of the combined row). A cost function generic over a model
+/// with `N` parameters can then size its accumulator without arithmetic on const generics
+/// (`CompactGram<{F + N}>` is not expressible): calibration's rows are `F` pose and intrinsic
+/// entries plus the `N` distortion derivatives of the lens model. Same arithmetic per entry as
+/// `CompactGram<F + N>`, so the same bits.
+#[derive(Debug, Clone)]
+pub struct PartitionedGram<const F: usize, const N: usize> {
+    rows_f: [[f64; BATCH]; F],
+    rows_n: [[f64; BATCH]; N],
+    residuals: [f64; BATCH],
+    filled: usize,
+    lanes_ff: [[[f64; LANES]; F]; F],
+    lanes_fn: [[[f64; LANES]; N]; F],
+    lanes_nn: [[[f64; LANES]; N]; N],
+    gradient_f: [[f64; LANES]; F],
+    gradient_n: [[f64; LANES]; N],
+    sums_ff: [[f64; F]; F],
+    sums_fn: [[f64; N]; F],
+    sums_nn: [[f64; N]; N],
+    sum_gradient_f: [f64; F],
+    sum_gradient_n: [f64; N],
+}
+
+impl<const F: usize, const N: usize> Default for PartitionedGram<F, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const F: usize, const N: usize> PartitionedGram<F, N> {
+    /// Width of a combined row.
+    pub const WIDTH: usize = F + N;
+
+    /// An empty accumulator.
+    pub fn new() -> Self {
+        Self {
+            rows_f: [[0.0; BATCH]; F],
+            rows_n: [[0.0; BATCH]; N],
+            residuals: [0.0; BATCH],
+            filled: 0,
+            lanes_ff: [[[0.0; LANES]; F]; F],
+            lanes_fn: [[[0.0; LANES]; N]; F],
+            lanes_nn: [[[0.0; LANES]; N]; N],
+            gradient_f: [[0.0; LANES]; F],
+            gradient_n: [[0.0; LANES]; N],
+            sums_ff: [[0.0; F]; F],
+            sums_fn: [[0.0; N]; F],
+            sums_nn: [[0.0; N]; N],
+            sum_gradient_f: [0.0; F],
+            sum_gradient_n: [0.0; N],
+        }
+    }
+
+    /// Adds one row `[fixed, model]` with residual `r`.
+    #[inline]
+    pub fn push(&mut self, fixed: &[f64; F], model: &[f64; N], r: f64) {
+        let p = self.filled;
+        for (column, value) in self.rows_f.iter_mut().zip(fixed) {
+            column[p] = *value;
+        }
+        for (column, value) in self.rows_n.iter_mut().zip(model) {
+            column[p] = *value;
+        }
+        self.residuals[p] = r;
+        self.filled += 1;
+        if self.filled == BATCH {
+            self.flush();
+        }
+    }
+
+    #[inline]
+    fn flush(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                unsafe { self.flush_avx2() };
+                self.filled = 0;
+                return;
+            }
+        }
+        self.flush_lanes();
+        self.filled = 0;
+    }
+
+    /// As [`CompactGram`]'s: AVX2 code without fused multiply-add, the same results.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn flush_avx2(&mut self) {
+        self.flush_lanes();
+    }
+
+    #[inline(always)]
+    fn accumulate(acc: &mut [f64; LANES], a: &[f64; BATCH], b: &[f64; BATCH]) {
+        for l in 0..LANES {
+            acc[l] += a[l] * b[l] + a[l + LANES] * b[l + LANES];
+        }
+    }
+
+    #[inline(always)]
+    fn flush_lanes(&mut self) {
+        for a in 0..F {
+            let ua = self.rows_f[a];
+            for c in a..F {
+                Self::accumulate(&mut self.lanes_ff[a][c], &ua, &self.rows_f[c]);
+            }
+            for c in 0..N {
+                Self::accumulate(&mut self.lanes_fn[a][c], &ua, &self.rows_n[c]);
+            }
+            Self::accumulate(&mut self.gradient_f[a], &ua, &self.residuals);
+        }
+        for a in 0..N {
+            let ua = self.rows_n[a];
+            for c in a..N {
+                Self::accumulate(&mut self.lanes_nn[a][c], &ua, &self.rows_n[c]);
+            }
+            Self::accumulate(&mut self.gradient_n[a], &ua, &self.residuals);
+        }
+    }
+
+    /// Reduces the rows still buffered and the lane sums, and returns the sums.
+    pub fn finish(&mut self) -> &Self {
+        if self.filled > 0 {
+            let filled = self.filled;
+            for column in self.rows_f.iter_mut().chain(self.rows_n.iter_mut()) {
+                column[filled..].fill(0.0);
+            }
+            self.residuals[filled..].fill(0.0);
+            self.flush();
+        }
+        let reduce = |v: &[f64; LANES]| (v[0] + v[1]) + (v[2] + v[3]);
+        for a in 0..F {
+            for c in a..F {
+                self.sums_ff[a][c] = reduce(&self.lanes_ff[a][c]);
+            }
+            for c in 0..N {
+                self.sums_fn[a][c] = reduce(&self.lanes_fn[a][c]);
+            }
+            self.sum_gradient_f[a] = reduce(&self.gradient_f[a]);
+        }
+        for a in 0..N {
+            for c in a..N {
+                self.sums_nn[a][c] = reduce(&self.lanes_nn[a][c]);
+            }
+            self.sum_gradient_n[a] = reduce(&self.gradient_n[a]);
+        }
+        self
+    }
+
+    /// Entry `(a, b)` of `sum u u^T` over combined rows (call [`PartitionedGram::finish`]
+    /// first).
+    #[inline]
+    pub fn entry(&self, a: usize, b: usize) -> f64 {
+        let (a, b) = if a <= b { (a, b) } else { (b, a) };
+        match (a < F, b < F) {
+            (true, true) => self.sums_ff[a][b],
+            (true, false) => self.sums_fn[a][b - F],
+            _ => self.sums_nn[a - F][b - F],
+        }
+    }
+
+    /// Entry `a` of `sum r u` (call [`PartitionedGram::finish`] first).
+    #[inline]
+    pub fn gradient(&self, a: usize) -> f64 {
+        if a < F {
+            self.sum_gradient_f[a]
+        } else {
+            self.sum_gradient_n[a - F]
+        }
+    }
+
+    /// As [`CompactGram::scatter`], with `targets` of length `F + N` (combined entries).
+    pub fn scatter(
+        &self,
+        targets: &[Option<(usize, f64)>],
+        gram: &mut [f64],
+        gradient: &mut [f64],
+        n: usize,
+    ) {
+        debug_assert_eq!(targets.len(), F + N);
+        for (a, target) in targets.iter().enumerate() {
+            let Some((ca, fa)) = *target else { continue };
+            gradient[ca] += fa * self.gradient(a);
+            for (c, other) in targets.iter().enumerate() {
+                if let Some((cc, fc)) = *other {
+                    gram[ca + cc * n] += fa * fc * self.entry(a, c);
+                }
+            }
+        }
+    }
+
+    /// As [`CompactGram::scatter_map`], on combined entries.
+    pub fn scatter_map(
+        &self,
+        entries: &[(usize, usize, f64)],
+        gram: &mut [f64],
+        gradient: &mut [f64],
+        n: usize,
+    ) {
+        for &(a, ca, fa) in entries {
+            gradient[ca] += fa * self.gradient(a);
+            for &(b, cb, fb) in entries {
+                gram[ca + cb * n] += fa * fb * self.entry(a, b);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,5 +506,41 @@ mod tests {
                 assert!((g.gradient(a) - direct).abs() <= 1e-12 * direct.abs().max(1.0));
             }
         }
+    }
+
+    /// The partitioned accumulator gives the same bits as the plain one on the combined rows.
+    #[test]
+    fn partitioned_equals_plain() {
+        let mut plain = CompactGram::<7>::new();
+        let mut split = PartitionedGram::<4, 3>::new();
+        let mut state = 3u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for _ in 0..21 {
+            let u: [f64; 7] = std::array::from_fn(|_| next());
+            let r = next();
+            plain.push(&u, r);
+            split.push(&[u[0], u[1], u[2], u[3]], &[u[4], u[5], u[6]], r);
+        }
+        let (a, b) = (plain.finish().clone(), split.finish().clone());
+        for i in 0..7 {
+            assert_eq!(a.gradient(i).to_bits(), b.gradient(i).to_bits());
+            for j in 0..7 {
+                assert_eq!(a.entry(i, j).to_bits(), b.entry(i, j).to_bits());
+            }
+        }
+        let targets: Vec<Option<(usize, f64)>> =
+            (0..7).map(|i| (i != 2).then_some((6 - i, 1.5))).collect();
+        let fixed: [Option<(usize, f64)>; 7] = std::array::from_fn(|i| targets[i]);
+        let (mut g1, mut r1) = (vec![0.0; 49], vec![0.0; 7]);
+        let (mut g2, mut r2) = (vec![0.0; 49], vec![0.0; 7]);
+        a.scatter(&fixed, &mut g1, &mut r1, 7);
+        b.scatter(&targets, &mut g2, &mut r2, 7);
+        assert_eq!(g1, g2);
+        assert_eq!(r1, r2);
     }
 }

@@ -4,7 +4,7 @@
 
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 
-pub use lm_solver::test_problems::Rng;
+pub use lm_solver::Rng;
 
 /// Intrinsic matrix with zero skew.
 pub fn intrinsics(fx: f64, fy: f64, cx: f64, cy: f64) -> Matrix3<f64> {

@@ -105,7 +105,7 @@ pub fn initial_rig(method: RigInit, left: &[Pose], right: &[Pose]) -> Option<Pos
 mod tests {
     use super::*;
     use camera_model::EulerXyz;
-    use lm_solver::test_problems::Rng;
+    use lm_solver::Rng;
 
     fn random_pose(rng: &mut Rng) -> Pose {
         Pose::new(

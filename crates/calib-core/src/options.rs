@@ -1,7 +1,7 @@
-//! Options of the single-camera calibration.
+//! Options of a camera's calibration (each camera of a stereo pair or rig has its own).
 
 use crate::init::FocalInit;
-use camera_model::{Intrinsics, RotationKind};
+use camera_model::{CameraModel, Intrinsics, RotationKind};
 use homography::RefineOptions;
 use lm_solver::SolverOptions;
 
@@ -9,7 +9,10 @@ use lm_solver::SolverOptions;
 /// k1, k2, p1, p2 and the poses) from the closed-form start, like OpenCV's `calibrateCamera` with
 /// `CALIB_FIX_K3`.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CalibrationOptions {
+    /// The lens model (default `brown-conrady4`: `k1, k2, p1, p2`).
+    pub model: CameraModel,
     /// Hold the principal point at its initial value (the image centre, or the guess). With a
     /// single view it is always held (it is not observable from one view).
     pub fix_principal_point: bool,
@@ -21,7 +24,8 @@ pub struct CalibrationOptions {
     /// Hold the tangential distortion coefficients at zero.
     pub zero_tangential_distortion: bool,
     /// Indices of distortion coefficients (in the model's order, e.g. `[k1, k2, p1, p2]`) to hold
-    /// at their initial value (zero unless a guess is given).
+    /// at their initial value (zero unless a guess is given). See
+    /// [`CalibrationOptions::fix_distortion_by_name`].
     pub fixed_distortion: Vec<usize>,
     /// Start from these intrinsics instead of the closed-form guess.
     pub intrinsic_guess: Option<Intrinsics>,
@@ -47,6 +51,7 @@ pub struct CalibrationOptions {
 impl Default for CalibrationOptions {
     fn default() -> Self {
         Self {
+            model: CameraModel::default(),
             fix_principal_point: false,
             fix_focal_length: false,
             fix_aspect_ratio: false,
@@ -65,6 +70,27 @@ impl Default for CalibrationOptions {
             },
             solver: default_solver_options(),
         }
+    }
+}
+
+impl CalibrationOptions {
+    /// Holds the named distortion coefficients ("k2", "p1", ...) of the model, or says which names
+    /// the model has.
+    pub fn fix_distortion_by_name(&mut self, names: &[&str]) -> Result<(), String> {
+        let known = self.model.distortion_names();
+        for name in names {
+            let index = known.iter().position(|n| n == name).ok_or_else(|| {
+                format!(
+                    "unknown coefficient '{name}' for model {} (expected one of {})",
+                    self.model,
+                    known.join(", ")
+                )
+            })?;
+            self.fixed_distortion.push(index);
+        }
+        self.fixed_distortion.sort_unstable();
+        self.fixed_distortion.dedup();
+        Ok(())
     }
 }
 

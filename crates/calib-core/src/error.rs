@@ -1,4 +1,6 @@
-//! Errors of the single-camera calibration.
+//! Errors of a calibration. Every variant about the input names the view (index in the input,
+//! from 0) and, where it applies, the point; front ends with several cameras wrap them with the
+//! camera and pair.
 
 use homography::HomographyError;
 use lm_solver::{CovarianceError, SolverError};
@@ -24,6 +26,7 @@ impl std::fmt::Display for PointKind {
 /// What can go wrong in a calibration. Every variant about the input names the view (index in the
 /// input, starting at 0) and, where it applies, the point.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum CalibrationError {
     /// No views were given (or none is left after skipping bad ones).
     #[error("no usable views{}", if *.skipped > 0 { format!(" ({} skipped as bad)", .skipped) } else { String::new() })]
@@ -134,6 +137,17 @@ pub enum CalibrationError {
     /// The parameters are not all determined by the data (singular normal matrix at the minimum).
     #[error("the calibration is not unique: {0}")]
     Unobservable(#[from] CovarianceError),
+    /// Some parameters are not determined by the data, named in user terms.
+    #[error(
+        "the calibration is not unique: {what} {verb} not determined by the data; {hint}",
+        verb = if .what.contains(", ") || .what.contains(" and ") { "are" } else { "is" }
+    )]
+    NotDetermined {
+        /// The parameters, e.g. "fx, fy, cx" or "the pose of view 3".
+        what: String,
+        /// What the user can do.
+        hint: String,
+    },
     /// The optimization produced a non-finite value.
     #[error("the optimization diverged ({0})")]
     Diverged(String),

@@ -2,8 +2,8 @@
 //!
 //! Derivations: `docs/calib-single.md`, sections "Initial intrinsics" and "Initial poses".
 
+use crate::data::ImageSize;
 use crate::error::CalibrationError;
-use crate::observations::ImageSize;
 use camera_model::{Intrinsics, Pose, nearest_rotation};
 use nalgebra::{Matrix3, Vector3};
 

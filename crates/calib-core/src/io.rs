@@ -1,0 +1,151 @@
+//! Reading input files with a bound on their size, and writing output files atomically.
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// Default bound on the size of an input file: 2 GiB (a 1000-view stereo file of 20x20 boards
+/// is about 90 MB).
+pub const DEFAULT_MAX_INPUT_BYTES: u64 = 2 << 30;
+
+/// Problems reading an input file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReadError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The path.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is larger than the bound.
+    #[error(
+        "{path} is larger than {limit} bytes; raise the limit (--max-input) if it really is an input file"
+    )]
+    TooLarge {
+        /// The path.
+        path: String,
+        /// The bound, bytes.
+        limit: u64,
+    },
+    /// The file is not valid JSON of the expected format.
+    #[error("{path}: {source}")]
+    Json {
+        /// The path (or `<string>` for text parsed from memory).
+        path: String,
+        /// The parse error, with line and column.
+        source: serde_json::Error,
+    },
+    /// The file is valid JSON but its content is inconsistent.
+    #[error("{path}: {reason}")]
+    Content {
+        /// The path.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Reads a whole text file of at most `max_bytes` bytes: its text and the displayable path that
+/// error messages name. Reads through a bound, so a device or pipe without end (`/dev/zero`)
+/// fails with [`ReadError::TooLarge`] instead of exhausting memory.
+pub fn read_text(path: &Path, max_bytes: u64) -> Result<(String, String), ReadError> {
+    let name = path.display().to_string();
+    let io = |source| ReadError::Io {
+        path: name.clone(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(ReadError::TooLarge {
+            path: name,
+            limit: max_bytes,
+        });
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text: {e}"),
+        ))
+    })?;
+    Ok((text, name))
+}
+
+/// Writes `contents` to `path` atomically: into a temporary file in the same directory, flushed
+/// to disk, then renamed over `path`. A failure half way (full disk, killed process) leaves any
+/// previous file at `path` untouched.
+pub fn write_atomically(path: &Path, contents: &[u8]) -> std::io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path"))?;
+    let mut temporary = dir.join(format!(
+        ".{}.tmp-{}",
+        file_name.to_string_lossy(),
+        std::process::id()
+    ));
+    let mut attempt = 0;
+    let mut file = loop {
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temporary)
+        {
+            Ok(f) => break f,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
+                attempt += 1;
+                temporary = dir.join(format!(
+                    ".{}.tmp-{}-{attempt}",
+                    file_name.to_string_lossy(),
+                    std::process::id()
+                ));
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    let written = file
+        .write_all(contents)
+        .and_then(|()| file.sync_all())
+        .and_then(|()| std::fs::rename(&temporary, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    written
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounded_reads_and_atomic_writes() {
+        let dir = std::env::temp_dir().join(format!("calib-core-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.json");
+        write_atomically(&path, b"first").unwrap();
+        write_atomically(&path, b"second").unwrap();
+        assert_eq!(read_text(&path, 100).unwrap().0, "second");
+        assert!(matches!(
+            read_text(&path, 3),
+            Err(ReadError::TooLarge { limit: 3, .. })
+        ));
+        #[cfg(unix)]
+        assert!(matches!(
+            read_text(Path::new("/dev/zero"), 1 << 20),
+            Err(ReadError::TooLarge { .. })
+        ));
+        // Writing into a missing directory fails and leaves nothing behind.
+        assert!(write_atomically(&dir.join("missing/b.json"), b"x").is_err());
+        let leftovers = std::fs::read_dir(&dir).unwrap().count();
+        assert_eq!(leftovers, 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

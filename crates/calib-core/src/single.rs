@@ -1,0 +1,311 @@
+//! One camera from its views: input checks, homographies, the closed-form start and the
+//! single-camera [`JointProblem`]. The single-camera front end solves it as the calibration; the
+//! stereo and rig front ends solve it per camera to start their joint problem.
+//!
+//! Walk-through with formulas: `docs/calib-single.md`.
+
+use crate::data::{ImageSize, View};
+use crate::error::{CalibrationError, PointKind};
+use crate::init::{initial_intrinsics, initial_pose};
+use crate::options::CalibrationOptions;
+use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
+use crate::result::SkippedView;
+use camera_model::{AnyCamera, CameraModel, Pose};
+use nalgebra::{Matrix3, Point2};
+use std::time::{Duration, Instant};
+
+/// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
+/// decimal, e.g. 24.23 mm squares) is far below it, a real out-of-plane point far above.
+pub const PLANARITY_TOLERANCE: f64 = 1e-9;
+
+/// Checks one view's points: counts, finiteness and planarity. `index` is the view's index in
+/// the user's input (for messages).
+pub fn check_view(index: usize, view: &View) -> Result<(), CalibrationError> {
+    let (n_obj, n_img) = (view.object_points.len(), view.image_points.len());
+    if n_obj != n_img {
+        return Err(CalibrationError::PointCountMismatch {
+            view: index,
+            object: n_obj,
+            image: n_img,
+        });
+    }
+    if n_obj < 4 {
+        return Err(CalibrationError::TooFewPoints {
+            view: index,
+            found: n_obj,
+        });
+    }
+    let mut extent = 0.0f64;
+    for (point, (o, m)) in view
+        .object_points
+        .iter()
+        .zip(&view.image_points)
+        .enumerate()
+    {
+        if !(o.x.is_finite() && o.y.is_finite() && o.z.is_finite()) {
+            return Err(CalibrationError::NonFinite {
+                view: index,
+                point,
+                kind: PointKind::Object,
+            });
+        }
+        if !(m.x.is_finite() && m.y.is_finite()) {
+            return Err(CalibrationError::NonFinite {
+                view: index,
+                point,
+                kind: PointKind::Image,
+            });
+        }
+        extent = extent.max(o.x.abs()).max(o.y.abs());
+    }
+    let tolerance = PLANARITY_TOLERANCE * extent.max(f64::MIN_POSITIVE);
+    if let Some((point, o)) = view
+        .object_points
+        .iter()
+        .enumerate()
+        .find(|(_, o)| o.z.abs() > tolerance)
+    {
+        return Err(CalibrationError::NotPlanar {
+            view: index,
+            point,
+            z: o.z,
+        });
+    }
+    Ok(())
+}
+
+/// One camera ready to be solved: its usable views, their homographies and the start.
+#[derive(Debug, Clone)]
+pub struct PreparedCamera {
+    /// Image size.
+    pub image_size: ImageSize,
+    /// Index in the input and name of each used view, in order.
+    pub views: Vec<(usize, String)>,
+    /// The used views as observations of camera 0, frame `k` for the `k`-th used view.
+    pub observations: Vec<ObservationSpec>,
+    /// Views left out by `skip_bad_views`.
+    pub skipped: Vec<SkippedView>,
+    /// The homography (board plane to pixels) of each used view.
+    pub homographies: Vec<Matrix3<f64>>,
+    /// Closed-form (or given) intrinsics with the initial distortion.
+    pub initial: AnyCamera,
+    /// Closed-form board-to-camera pose of each used view.
+    pub initial_poses: Vec<Pose>,
+    /// Fixed components of the camera block `[fx, fy, cx, cy, distortion...]`.
+    pub fixed: Vec<usize>,
+    /// `fx / fy` when the aspect ratio is fixed.
+    pub aspect_ratio: Option<f64>,
+    /// Time spent on checks and homographies, and on the closed-form start.
+    pub times: (Duration, Duration),
+}
+
+/// Indices of the camera block `[fx, fy, cx, cy, distortion...]` held fixed by `options` for a
+/// calibration with `num_views` views (sorted, unique).
+pub fn fixed_camera_components(options: &CalibrationOptions, num_views: usize) -> Vec<usize> {
+    let mut fixed = Vec::new();
+    if options.fix_principal_point || num_views == 1 {
+        fixed.extend([2, 3]);
+    }
+    if options.fix_focal_length {
+        fixed.extend([0, 1]);
+    }
+    if options.fix_aspect_ratio {
+        fixed.push(1);
+    }
+    if options.zero_tangential_distortion {
+        fixed.extend(options.model.tangential_params().iter().map(|i| 4 + i));
+    }
+    fixed.extend(options.fixed_distortion.iter().map(|i| 4 + i));
+    fixed.sort_unstable();
+    fixed.dedup();
+    fixed
+}
+
+/// Names of the camera block's components for `model`: `fx, fy, cx, cy` and the distortion's.
+pub fn camera_param_names(model: CameraModel) -> Vec<&'static str> {
+    let mut names = vec!["fx", "fy", "cx", "cy"];
+    names.extend_from_slice(model.distortion_names());
+    names
+}
+
+fn check_options(options: &CalibrationOptions) -> Result<(), CalibrationError> {
+    let n = options.model.num_distortion_params();
+    if let Some(&i) = options.fixed_distortion.iter().find(|&&i| i >= n) {
+        return Err(CalibrationError::InvalidOption(format!(
+            "distortion index {i} out of range: the model {} has {n} coefficients",
+            options.model
+        )));
+    }
+    if let Some(d) = &options.distortion_guess
+        && (d.len() != n || d.iter().any(|v| !v.is_finite()))
+    {
+        return Err(CalibrationError::InvalidOption(format!(
+            "distortion guess must have {n} finite coefficients for the model {}",
+            options.model
+        )));
+    }
+    if let Some(k) = &options.intrinsic_guess
+        && !k.is_valid()
+    {
+        return Err(CalibrationError::InvalidOption(format!(
+            "intrinsic guess must be finite with positive focal lengths: {k:?}"
+        )));
+    }
+    Ok(())
+}
+
+/// Checks the views, estimates their homographies and computes the closed-form start: the
+/// principal point at the image centre, square pixels and the focal length from the
+/// orthogonality of the board's axes (unless `options.intrinsic_guess`), distortion zero (or
+/// `options.distortion_guess`), and one pose per view from `K^-1 H`.
+///
+/// `views` pairs each view with its index in the user's input, which errors and skipped views
+/// name. With `options.skip_bad_views`, views that fail the checks or whose homography cannot be
+/// estimated are listed in [`PreparedCamera::skipped`] instead of failing.
+pub fn prepare_camera(
+    views: &[(usize, &View)],
+    image_size: Option<ImageSize>,
+    options: &CalibrationOptions,
+) -> Result<PreparedCamera, CalibrationError> {
+    let start = Instant::now();
+    let image_size = image_size.ok_or(CalibrationError::ImageSizeMissing)?;
+    if image_size.width == 0 || image_size.height == 0 {
+        return Err(CalibrationError::InvalidImageSize {
+            width: image_size.width,
+            height: image_size.height,
+        });
+    }
+    check_options(options)?;
+    let mut used = Vec::new();
+    let mut homographies = Vec::new();
+    let mut skipped = Vec::new();
+    for &(index, view) in views {
+        let result = check_view(index, view).and_then(|()| {
+            let object: Vec<Point2<f64>> = view
+                .object_points
+                .iter()
+                .map(|p| Point2::new(p.x, p.y))
+                .collect();
+            homography::estimate(&object, &view.image_points, &options.homography)
+                .map(|e| e.h)
+                .map_err(|source| CalibrationError::Homography {
+                    view: index,
+                    source,
+                })
+        });
+        match result {
+            Ok(h) => {
+                used.push((index, view));
+                homographies.push(h);
+            }
+            Err(e) if options.skip_bad_views => skipped.push(SkippedView {
+                index,
+                name: view.name.clone(),
+                reason: e.to_string(),
+            }),
+            Err(e) => return Err(e),
+        }
+    }
+    if used.is_empty() {
+        return Err(CalibrationError::NoViews {
+            skipped: skipped.len(),
+        });
+    }
+    let homographies_done = Instant::now();
+
+    let intrinsics = match options.intrinsic_guess {
+        Some(guess) => guess,
+        None => initial_intrinsics(&homographies, image_size, options.focal_init)?,
+    };
+    let mut distortion = options
+        .distortion_guess
+        .clone()
+        .unwrap_or_else(|| vec![0.0; options.model.num_distortion_params()]);
+    if options.zero_tangential_distortion {
+        for &i in options.model.tangential_params() {
+            distortion[i] = 0.0;
+        }
+    }
+    let initial = AnyCamera::new(options.model, intrinsics, distortion)
+        .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    let mut initial_poses = Vec::with_capacity(used.len());
+    for (&(index, view), h) in used.iter().zip(&homographies) {
+        let pose =
+            initial_pose(h, &intrinsics).ok_or_else(|| CalibrationError::Initialization {
+                reason: format!("view {index}: no pose from its homography"),
+            })?;
+        if let Some(point) = view
+            .object_points
+            .iter()
+            .position(|x| pose.transform_point(x).z <= 0.0)
+        {
+            return Err(CalibrationError::PointBehindCamera { view: index, point });
+        }
+        initial_poses.push(pose);
+    }
+    let fixed = fixed_camera_components(options, used.len());
+    Ok(PreparedCamera {
+        image_size,
+        aspect_ratio: options
+            .fix_aspect_ratio
+            .then(|| intrinsics.fx / intrinsics.fy),
+        observations: used
+            .iter()
+            .enumerate()
+            .map(|(k, (_, view))| {
+                ObservationSpec::new(
+                    0,
+                    k,
+                    view.name.clone(),
+                    view.object_points.clone(),
+                    view.image_points.iter().map(|p| p.coords).collect(),
+                )
+            })
+            .collect(),
+        views: used.iter().map(|(i, v)| (*i, v.name.clone())).collect(),
+        skipped,
+        homographies,
+        initial,
+        initial_poses,
+        fixed,
+        times: (homographies_done - start, homographies_done.elapsed()),
+    })
+}
+
+impl PreparedCamera {
+    /// The camera as a [`CameraSpec`] named `name`.
+    pub fn camera_spec(&self, name: &str) -> CameraSpec {
+        let mut spec = CameraSpec::new(name, self.image_size, self.initial.clone());
+        spec.fixed = self.fixed.clone();
+        spec.aspect_ratio = self.aspect_ratio;
+        spec
+    }
+
+    /// The single-camera problem: one camera, one frame per used view (named "view N" after
+    /// the view's input index). Clones the observations; see [`PreparedCamera::into_problem`].
+    pub fn problem(&self, name: &str) -> JointProblem {
+        self.clone().into_problem(name)
+    }
+
+    /// [`PreparedCamera::problem`], moving the observations instead of copying them.
+    pub fn into_problem(self, name: &str) -> JointProblem {
+        JointProblem {
+            cameras: vec![self.camera_spec(name)],
+            reference: 0,
+            rig: vec![Pose::identity()],
+            rig_fixed: vec![true],
+            frame_names: self
+                .views
+                .iter()
+                .map(|(i, name)| format!("view {i} ({name})"))
+                .collect(),
+            frames: self.initial_poses,
+            observations: self.observations,
+        }
+    }
+
+    /// Total number of points used.
+    pub fn num_points(&self) -> usize {
+        self.observations.iter().map(|o| o.object.len()).sum()
+    }
+}

@@ -1,0 +1,477 @@
+//! One Levenberg-Marquardt solve of a [`JointProblem`] and its covariance.
+//!
+//! The problem becomes `lm_solver` blocks (cameras and rig transforms reduced, frame poses
+//! eliminated by the Schur complement, one residual block per observation with the loss applied
+//! per point), is solved from its start values, and the solution is read back with standard
+//! deviations. Failures are reported in user terms: the camera, the view or frame, the
+//! parameter names.
+
+use crate::cost::{JointCost, residual_layouts};
+use crate::error::CalibrationError;
+use crate::problem::JointProblem;
+use camera_model::{
+    AnyCamera, AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization, So3,
+};
+use lm_solver::manifold::RotationVector;
+use lm_solver::{
+    CovarianceError, Loss, ParameterBlockId, ProblemBuilder, Solver, SolverError, SolverOptions,
+    SolverReport,
+};
+use nalgebra::{DMatrix, Vector2, Vector6};
+use std::sync::Arc;
+
+/// How to solve a [`JointProblem`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SolveOptions {
+    /// Rotation parameterization of frame poses and rig transforms.
+    pub rotation: RotationKind,
+    /// Levenberg-Marquardt settings.
+    pub solver: SolverOptions,
+    /// Robust loss applied to each point's squared reprojection error (px^2).
+    pub loss: Loss,
+    /// Compute the covariance (standard deviations) at the solution.
+    pub compute_uncertainty: bool,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        let mut solver = SolverOptions::default();
+        solver.max_iterations = 100;
+        Self {
+            rotation: RotationKind::EulerXyz,
+            solver,
+            loss: Loss::Trivial,
+            compute_uncertainty: true,
+        }
+    }
+}
+
+/// The solution of a [`JointProblem`].
+#[derive(Debug, Clone)]
+pub struct JointSolution {
+    /// Each camera as estimated (a fixed aspect ratio and shared focal lengths applied).
+    pub cameras: Vec<AnyCamera>,
+    /// Standard deviations of each camera's `[fx, fy, cx, cy, distortion...]` (zero for fixed
+    /// components; those of the source camera for shared focal lengths; zeros without
+    /// uncertainty).
+    pub camera_std: Vec<Vec<f64>>,
+    /// Covariance of each camera's block `[fx, fy, cx, cy, distortion...]` (pixels and
+    /// coefficient units; rows and columns of fixed components zero), when computed.
+    pub camera_covariance: Vec<Option<DMatrix<f64>>>,
+    /// Each camera's transform from the reference camera, `X_cam = R X_ref + t`.
+    pub rig: Vec<Pose>,
+    /// Its parameters `[rho, t]` in the rotation parameterization (zeros for the reference).
+    pub rig_params: Vec<[f64; 6]>,
+    /// Their standard deviations (radians, board units; zero for the reference and fixed rigs).
+    pub rig_std: Vec<[f64; 6]>,
+    /// Each frame's board pose in the reference camera's frame.
+    pub frames: Vec<Pose>,
+    /// Its parameters `[rho, t]`.
+    pub frame_params: Vec<[f64; 6]>,
+    /// Their standard deviations.
+    pub frame_std: Vec<[f64; 6]>,
+    /// Per observation, per point: `projected - measured`, pixels (unweighted, every point).
+    pub residuals: Vec<Vec<Vector2<f64>>>,
+    /// The Levenberg-Marquardt report.
+    pub report: SolverReport,
+    /// `sum w |e|^2 / (2 n_used - p)`, pixels^2: the variance that scales the covariance.
+    pub residual_variance: f64,
+    /// The rotation parameterization of the parameters above.
+    pub rotation: RotationKind,
+}
+
+/// The solver's parameter blocks of a [`JointProblem`].
+#[derive(Debug, Clone)]
+pub(crate) struct Blocks {
+    pub cameras: Vec<ParameterBlockId>,
+    pub rigs: Vec<Option<ParameterBlockId>>,
+    pub frames: Vec<ParameterBlockId>,
+}
+
+/// Solves `problem` from its start values.
+pub fn solve(
+    problem: &JointProblem,
+    options: &SolveOptions,
+) -> Result<JointSolution, CalibrationError> {
+    problem
+        .check()
+        .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    match options.rotation {
+        RotationKind::EulerXyz => solve_with::<EulerXyz>(problem, options),
+        RotationKind::AxisAngle => solve_with::<AxisAngle>(problem, options),
+        RotationKind::So3 => solve_with::<So3>(problem, options),
+    }
+}
+
+/// The reprojection errors `projected - measured` (pixels) of every point of every observation
+/// at the problem's start values (cameras, rig and frame poses as given), without optimizing:
+/// to evaluate someone else's solution, or a start.
+pub fn reprojection_errors(
+    problem: &JointProblem,
+) -> Result<Vec<Vec<Vector2<f64>>>, CalibrationError> {
+    problem
+        .check()
+        .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    let (lm, blocks) = build(problem, &SolveOptions::default())?;
+    let x = start::<EulerXyz>(problem, &lm, &blocks);
+    let cost = JointCost::<EulerXyz>::new(problem);
+    (0..problem.observations.len())
+        .map(|i| {
+            let params: Vec<&[f64]> = lm
+                .residual_blocks_of(lm_solver::ResidualBlockId(i))
+                .map(|b| lm.block(&x, b))
+                .collect();
+            cost.reprojection_errors(i, &params)
+                .map_err(|e| CalibrationError::Initialization { reason: e.message })
+        })
+        .collect()
+}
+
+/// The `lm_solver` problem [`solve`] builds for `problem`, with the start vector (rotations in
+/// parameterization `R`): for callers that drive or time the solver themselves (the benchmarks
+/// do).
+pub fn solver_problem<R: RotationParameterization>(
+    problem: &JointProblem,
+    options: &SolveOptions,
+) -> Result<(lm_solver::Problem, Vec<f64>), CalibrationError> {
+    problem
+        .check()
+        .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    let (lm, blocks) = build(problem, options)?;
+    let x = start::<R>(problem, &lm, &blocks);
+    Ok((lm, x))
+}
+
+/// The `lm_solver` problem of `problem`.
+fn build(
+    problem: &JointProblem,
+    options: &SolveOptions,
+) -> Result<(lm_solver::Problem, Blocks), CalibrationError> {
+    let mut builder = ProblemBuilder::new();
+    let manifold = options
+        .rotation
+        .needs_manifold()
+        .then(|| Arc::new(RotationVector::pose()));
+    let cameras: Vec<ParameterBlockId> = problem
+        .cameras
+        .iter()
+        .map(|c| {
+            let b = builder.add_parameter_block(c.model().num_params());
+            builder.set_fixed_components(b, &c.fixed);
+            b
+        })
+        .collect();
+    let rigs: Vec<Option<ParameterBlockId>> = (0..problem.cameras.len())
+        .map(|c| {
+            problem.has_rig(c).then(|| {
+                let b = builder.add_parameter_block(6);
+                builder.set_constant(b, problem.rig_fixed[c]);
+                if let Some(m) = &manifold {
+                    builder.set_manifold(b, m.clone());
+                }
+                b
+            })
+        })
+        .collect();
+    let frames: Vec<ParameterBlockId> = problem
+        .frames
+        .iter()
+        .map(|_| {
+            let b = builder.add_parameter_block(6);
+            builder.set_eliminated(b, true);
+            if let Some(m) = &manifold {
+                builder.set_manifold(b, m.clone());
+            }
+            b
+        })
+        .collect();
+    for (o, layout) in problem.observations.iter().zip(residual_layouts(problem)) {
+        let mut blocks = vec![cameras[o.camera], frames[o.frame]];
+        if layout.rig.is_some() {
+            blocks.push(rigs[o.camera].expect("non-reference camera has a rig block"));
+        }
+        if let Some(source) = problem.cameras[o.camera].focal_from {
+            blocks.push(cameras[source]);
+        }
+        builder.add_residual_block_with_grouped_loss(2 * o.object.len(), &blocks, options.loss, 2);
+    }
+    let built = builder
+        .build()
+        .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    Ok((
+        built,
+        Blocks {
+            cameras,
+            rigs,
+            frames,
+        },
+    ))
+}
+
+/// The start values as the solver's parameter vector.
+fn start<R: RotationParameterization>(
+    problem: &JointProblem,
+    lm: &lm_solver::Problem,
+    blocks: &Blocks,
+) -> Vec<f64> {
+    let mut x = vec![0.0; lm.num_parameters()];
+    for (camera, &b) in problem.cameras.iter().zip(&blocks.cameras) {
+        camera.initial.write_params(lm.block_mut(&mut x, b));
+    }
+    for (rig, b) in problem.rig.iter().zip(&blocks.rigs) {
+        if let Some(b) = b {
+            lm.block_mut(&mut x, *b)
+                .copy_from_slice(rig.to_params::<R>().as_slice());
+        }
+    }
+    for (pose, &b) in problem.frames.iter().zip(&blocks.frames) {
+        lm.block_mut(&mut x, b)
+            .copy_from_slice(pose.to_params::<R>().as_slice());
+    }
+    x
+}
+
+/// Describes parameter block `block` in user terms.
+fn describe_block(problem: &JointProblem, blocks: &Blocks, block: ParameterBlockId) -> String {
+    if let Some(c) = blocks.cameras.iter().position(|&b| b == block) {
+        return format!("the intrinsics of camera '{}'", problem.cameras[c].name);
+    }
+    if let Some(c) = blocks.rigs.iter().position(|&b| b == Some(block)) {
+        return format!(
+            "the pose of camera '{}' in the rig",
+            problem.cameras[c].name
+        );
+    }
+    if let Some(f) = blocks.frames.iter().position(|&b| b == block) {
+        return format!("the board pose of {}", problem.frame_names[f]);
+    }
+    format!("parameter block {}", block.0)
+}
+
+/// Names the component `component` of block `block` ("fx of camera 'left'").
+fn describe_component(
+    problem: &JointProblem,
+    blocks: &Blocks,
+    block: ParameterBlockId,
+    component: usize,
+) -> String {
+    if let Some(c) = blocks.cameras.iter().position(|&b| b == block) {
+        let names = problem.cameras[c].param_names();
+        let name = names.get(component).copied().unwrap_or("?");
+        return if problem.cameras.len() == 1 {
+            name.to_string()
+        } else {
+            format!("{name} of camera '{}'", problem.cameras[c].name)
+        };
+    }
+    let what = if component < 3 {
+        "rotation"
+    } else {
+        "translation"
+    };
+    format!("{what} of {}", describe_block(problem, blocks, block))
+}
+
+/// A solver or covariance failure in user terms.
+fn user_error(problem: &JointProblem, blocks: &Blocks, error: CovarianceError) -> CalibrationError {
+    match error {
+        CovarianceError::RankDeficient { weakest, .. } => {
+            let mut names: Vec<String> = weakest
+                .iter()
+                .map(|&(b, c)| describe_component(problem, blocks, b, c))
+                .collect();
+            names.dedup();
+            CalibrationError::NotDetermined {
+                what: names.join(", "),
+                hint: "add views with the board tilted and spread over the image, or fix these parameters".into(),
+            }
+        }
+        CovarianceError::SingularEliminatedBlock { block } => CalibrationError::NotDetermined {
+            what: describe_block(problem, blocks, ParameterBlockId(block)),
+            hint: "the board must show at least 4 well-spread points that are not on one line"
+                .into(),
+        },
+        CovarianceError::Singular { .. } => CalibrationError::NotDetermined {
+            what: "some combination of the parameters".into(),
+            hint: "add views with the board tilted and spread over the image, or fix parameters"
+                .into(),
+        },
+        other => CalibrationError::Unobservable(other),
+    }
+}
+
+fn solver_error(problem: &JointProblem, error: SolverError) -> CalibrationError {
+    match error {
+        SolverError::InitialEvaluation { residual, message } => {
+            let name = problem
+                .observations
+                .get(residual)
+                .map_or_else(|| format!("residual block {residual}"), |o| o.name.clone());
+            CalibrationError::Initialization {
+                reason: format!("{name}: the start values cannot be evaluated: {message}"),
+            }
+        }
+        other => CalibrationError::Solver(other),
+    }
+}
+
+fn solve_with<R: RotationParameterization>(
+    problem: &JointProblem,
+    options: &SolveOptions,
+) -> Result<JointSolution, CalibrationError> {
+    let (lm, blocks) = build(problem, options)?;
+    let used = problem.num_used_points();
+    let free = lm.num_free_parameters();
+    if 2 * used <= free {
+        return Err(CalibrationError::TooFewObservations {
+            residuals: 2 * used,
+            parameters: free,
+        });
+    }
+    let cost = JointCost::<R>::new(problem);
+    let mut x = start::<R>(problem, &lm, &blocks);
+    let mut solver =
+        Solver::new(lm, options.solver.clone()).map_err(|e| solver_error(problem, e))?;
+    let report = solver
+        .solve(&cost, &mut x)
+        .map_err(|e| solver_error(problem, e))?;
+    // Zero-weight points count as residuals for the solver but carry no information: rescale
+    // the variance to the points actually used.
+    let all_rows = solver.problem().num_residuals();
+    let used_rows = 2 * used;
+    let dof_scale = (all_rows - free) as f64 / (used_rows - free) as f64;
+    let covariance = if options.compute_uncertainty {
+        Some(
+            solver
+                .covariance(&cost, &x)
+                .map_err(|e| user_error(problem, &blocks, e))?,
+        )
+    } else {
+        None
+    };
+    let lm = solver.problem();
+    let std_of = |b: ParameterBlockId| -> Vec<f64> {
+        match &covariance {
+            Some(c) => c
+                .standard_deviations(b)
+                .into_iter()
+                .map(|s| s * dof_scale.sqrt())
+                .collect(),
+            None => vec![0.0; lm.tangent_dim(b)],
+        }
+    };
+    let six = |v: Vec<f64>| -> [f64; 6] { v.try_into().unwrap_or([0.0; 6]) };
+
+    // Cameras, with the effective focal lengths.
+    let raw_params: Vec<&[f64]> = blocks.cameras.iter().map(|&b| lm.block(&x, b)).collect();
+    let mut cameras = Vec::with_capacity(problem.cameras.len());
+    let mut camera_std = Vec::with_capacity(problem.cameras.len());
+    let mut camera_covariance = Vec::with_capacity(problem.cameras.len());
+    for (c, spec) in problem.cameras.iter().enumerate() {
+        let source = spec.focal_from.map(|s| raw_params[s]);
+        let params = cost.camera_params(c, raw_params[c], source);
+        cameras.push(
+            AnyCamera::from_params(spec.model(), &params)
+                .map_err(|e| CalibrationError::Diverged(e.to_string()))?,
+        );
+        let mut std = std_of(blocks.cameras[c]);
+        if let Some(s) = spec.focal_from {
+            let src = std_of(blocks.cameras[s]);
+            let r = problem.cameras[s].aspect_ratio;
+            std[0] = src[0];
+            std[1] = r.map_or(src[1], |r| src[0] / r);
+        } else if let Some(r) = spec.aspect_ratio {
+            std[1] = std[0] / r;
+        }
+        camera_std.push(std);
+        camera_covariance.push(
+            covariance
+                .as_ref()
+                .and_then(|cov| cov.block(blocks.cameras[c]))
+                .map(|m| m * dof_scale),
+        );
+    }
+    let mut rig = Vec::with_capacity(problem.cameras.len());
+    let mut rig_params = Vec::new();
+    let mut rig_std = Vec::new();
+    for b in &blocks.rigs {
+        match b {
+            Some(b) => {
+                let p = six(lm.block(&x, *b).to_vec());
+                rig.push(Pose::from_params::<R>(&Vector6::from(p)));
+                rig_params.push(p);
+                rig_std.push(six(std_of(*b)));
+            }
+            None => {
+                rig.push(Pose::identity());
+                rig_params.push([0.0; 6]);
+                rig_std.push([0.0; 6]);
+            }
+        }
+    }
+    let mut frames = Vec::new();
+    let mut frame_params = Vec::new();
+    let mut frame_std = Vec::new();
+    for &b in &blocks.frames {
+        let p = six(lm.block(&x, b).to_vec());
+        frames.push(Pose::from_params::<R>(&Vector6::from(p)));
+        frame_params.push(p);
+        frame_std.push(six(std_of(b)));
+    }
+    let mut residuals = Vec::with_capacity(problem.observations.len());
+    let mut weighted = 0.0;
+    for (i, o) in problem.observations.iter().enumerate() {
+        let params: Vec<&[f64]> = lm
+            .residual_blocks_of(lm_solver::ResidualBlockId(i))
+            .map(|b| lm.block(&x, b))
+            .collect();
+        let e = cost
+            .reprojection_errors(i, &params)
+            .map_err(|e| CalibrationError::Diverged(e.message))?;
+        for (k, v) in e.iter().enumerate() {
+            weighted += o.weights.as_ref().map_or(1.0, |w| w[k]) * v.norm_squared();
+        }
+        residuals.push(e);
+    }
+    let solution = JointSolution {
+        cameras,
+        camera_std,
+        camera_covariance,
+        rig,
+        rig_params,
+        rig_std,
+        frames,
+        frame_params,
+        frame_std,
+        residuals,
+        report,
+        residual_variance: weighted / (used_rows - free) as f64,
+        rotation: options.rotation,
+    };
+    check_finite(&solution)?;
+    Ok(solution)
+}
+
+fn check_finite(s: &JointSolution) -> Result<(), CalibrationError> {
+    let mut ok = s.residual_variance.is_finite();
+    for (camera, std) in s.cameras.iter().zip(&s.camera_std) {
+        ok &= camera.params().iter().chain(std).all(|v| v.is_finite());
+    }
+    for v in s
+        .rig_params
+        .iter()
+        .chain(&s.rig_std)
+        .chain(&s.frame_params)
+        .chain(&s.frame_std)
+    {
+        ok &= v.iter().all(|v| v.is_finite());
+    }
+    if ok {
+        Ok(())
+    } else {
+        Err(CalibrationError::Diverged(
+            "a parameter or its uncertainty is not finite".into(),
+        ))
+    }
+}
