@@ -7,6 +7,7 @@
 //! Stereo end-to-end benchmarks: `benches/calibrate_stereo.rs`, same sizes.
 
 use calib_benches::{BOARD_9X6, BOARD_20X20, single_thread_options};
+use calib_core::JsonFile;
 use calib_single::{Observations, calibrate};
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,

@@ -5,6 +5,7 @@
 //! `data/sourishg1/stereo.json` (29 pairs, 9x6) when it is present.
 
 use calib_benches::{BOARD_9X6, BOARD_20X20, NOISE_PX, single_thread_solver_options};
+use calib_core::JsonFile;
 use calib_single::synthetic::SyntheticConfig;
 use calib_stereo::synthetic::{SyntheticStereoConfig, generate_stereo};
 use calib_stereo::{StereoObservations, StereoOptions, calibrate_stereo};

@@ -26,6 +26,7 @@
 //! Prints a Markdown table and a summary; the results are in `docs/benchmarks-solver.md`.
 
 use calib_benches::{BOARD_9X6, BOARD_20X20, single_thread_options, synthetic};
+use calib_core::JsonFile;
 use calib_single::{Observations, calibrate};
 use camera_model::Intrinsics;
 use lm_solver::{DampingPolicy, SolverReport, Termination};

@@ -2,6 +2,7 @@
 
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::{Failure, parse_list};
+use calib_core::JsonFile;
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
 use camera_model::{CameraModel, Intrinsics, RotationKind};
 use clap::{Args, ValueEnum};

@@ -3,6 +3,7 @@
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::single::CameraArgs;
 use crate::{Failure, parse_list};
+use calib_core::JsonFile;
 use calib_stereo::{RigInit, StereoObservations, StereoOptions, calibrate_stereo};
 use camera_model::{AxisAngle, Intrinsics, Pose, RotationParameterization};
 use clap::{Args, ValueEnum};

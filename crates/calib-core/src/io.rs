@@ -76,6 +76,49 @@ pub fn read_text(path: &Path, max_bytes: u64) -> Result<(String, String), ReadEr
     Ok((text, name))
 }
 
+/// Parses JSON text of type `T`; errors name `path` (any label, e.g. `<string>`) with the line
+/// and column.
+pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str, path: &str) -> Result<T, ReadError> {
+    serde_json::from_str(text).map_err(|source| ReadError::Json {
+        path: path.to_string(),
+        source,
+    })
+}
+
+/// Reads a JSON file of type `T` of at most `max_bytes` bytes ([`read_text`], [`parse_json`]).
+pub fn read_json<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    max_bytes: u64,
+) -> Result<T, ReadError> {
+    let (text, name) = read_text(path, max_bytes)?;
+    parse_json(&text, &name)
+}
+
+/// An input file format read from JSON: implementors give the serde form of the file and the
+/// conversion; reading (bounded in size) and parsing come with the trait.
+pub trait JsonFile: Sized {
+    /// The serde form of the file.
+    type File: serde::de::DeserializeOwned;
+
+    /// The value a parsed file describes.
+    fn from_file(file: Self::File) -> Self;
+
+    /// Parses JSON text (errors name `<string>` and the line and column).
+    fn from_json(text: &str) -> Result<Self, ReadError> {
+        parse_json(text, "<string>").map(Self::from_file)
+    }
+
+    /// Reads a file of at most [`DEFAULT_MAX_INPUT_BYTES`].
+    fn read(path: impl AsRef<Path>) -> Result<Self, ReadError> {
+        Self::read_bounded(path, DEFAULT_MAX_INPUT_BYTES)
+    }
+
+    /// Reads a file of at most `max_bytes` bytes.
+    fn read_bounded(path: impl AsRef<Path>, max_bytes: u64) -> Result<Self, ReadError> {
+        read_json(path.as_ref(), max_bytes).map(Self::from_file)
+    }
+}
+
 /// Writes `contents` to `path` atomically: into a temporary file in the same directory, flushed
 /// to disk, then renamed over `path`. A failure half way (full disk, killed process) leaves any
 /// previous file at `path` untouched.

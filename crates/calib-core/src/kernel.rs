@@ -3,7 +3,7 @@
 //!
 //! Per point, the x and y rows of the Jacobian have few structural non-zeros: the x row does not
 //! depend on `fy, cy`, the y row not on `fx, cx`. Each row is accumulated as a compact row
-//! ([`PartitionedGram`]: a fixed part and the `N` distortion derivatives of the lens model) and
+//! ([`CompactGram`]: a fixed part and the `N` distortion derivatives of the lens model) and
 //! scattered onto the residual block's columns once per view:
 //!
 //! * reference camera (no rig): fixed part `[d focal, 1, d/dpose (6)]`, width 8;
@@ -22,9 +22,9 @@
 
 use crate::problem::ObservationSpec;
 use camera_model::{Camera, DifferentiablePose, LensDistortion, ParamJacobian, Projection};
-use lm_solver::gram::PartitionedGram;
+use lm_solver::gram::CompactGram;
 use lm_solver::{GramBlocks, Loss};
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix2x3, Matrix3, Matrix3x6, Point3, SMatrix, Vector3};
 
 /// Where the focal-length entries of the x and y rows go: `(column, factor)` each, or `None`
 /// for a constant block.
@@ -69,7 +69,8 @@ pub(crate) fn handles_loss(loss: Loss) -> bool {
 /// Dispatch to the kernels of a model with `N` coefficients, `N` read from the model's
 /// parameter Jacobian type.
 pub(crate) trait KernelWidth {
-    /// See [`reference_view`].
+    /// An observation by the reference camera (residual block `[camera, frame pose (, focal
+    /// source)]`), see [`accumulate`].
     fn reference<D, P>(
         camera: &Camera<D, P>,
         pose: &DifferentiablePose,
@@ -80,7 +81,8 @@ pub(crate) trait KernelWidth {
         D: LensDistortion<ParamJacobian = Self>,
         P: Projection;
 
-    /// See [`rig_view`].
+    /// An observation by another camera (residual block `[camera, frame pose, rig (, focal
+    /// source)]`), see [`accumulate`].
     fn rig<D, P>(
         camera: &Camera<D, P>,
         pose: &DifferentiablePose,
@@ -105,10 +107,11 @@ impl<const N: usize> KernelWidth for SMatrix<f64, 2, N> {
         D: LensDistortion<ParamJacobian = Self>,
         P: Projection,
     {
+        let geometry = ReferenceGeometry { pose };
         if view.observation.weights.is_none() && gram.loss().is_trivial() {
-            reference_view::<D, P, N, false>(camera, pose, view, gram)
+            accumulate::<D, P, _, 8, N, false>(camera, &geometry, view, gram)
         } else {
-            reference_view::<D, P, N, true>(camera, pose, view, gram)
+            accumulate::<D, P, _, 8, N, true>(camera, &geometry, view, gram)
         }
     }
 
@@ -124,12 +127,57 @@ impl<const N: usize> KernelWidth for SMatrix<f64, 2, N> {
         D: LensDistortion<ParamJacobian = Self>,
         P: Projection,
     {
+        let geometry = RigGeometry::new(pose, rig);
         if view.observation.weights.is_none() && gram.loss().is_trivial() {
-            rig_view::<D, P, N, false>(camera, pose, rig, view, gram)
+            accumulate::<D, P, _, 11, N, false>(camera, &geometry, view, gram)
         } else {
-            rig_view::<D, P, N, true>(camera, pose, rig, view, gram)
+            accumulate::<D, P, _, 11, N, true>(camera, &geometry, view, gram)
         }
     }
+}
+
+/// `(rho(w s), sqrt(w rho'(w s)))` of point `i` (weight `w`, squared residual `s`); without
+/// `SCALED` (all weights one, trivial loss) simply `(s, 1)`, so that the common case compiles
+/// without the scaling.
+#[inline(always)]
+fn scale<const SCALED: bool>(
+    obs: &ObservationSpec,
+    i: usize,
+    loss: Loss,
+    rx: f64,
+    ry: f64,
+) -> (f64, f64) {
+    if SCALED {
+        let w = obs.weights.as_ref().map_or(1.0, |w| w[i]);
+        point_scale(loss, w, rx * rx + ry * ry)
+    } else {
+        (rx * rx + ry * ry, 1.0)
+    }
+}
+
+/// Pushes a point's x and y rows (fixed parts `fixed`, the distortion derivatives from `dd`,
+/// residuals `r`), all scaled by `c`.
+#[inline(always)]
+fn push_rows<J: ParamJacobian, const F: usize, const N: usize>(
+    grams: [&mut CompactGram<F, N>; 2],
+    fixed: [[f64; F]; 2],
+    dd: &J,
+    r: [f64; 2],
+    c: f64,
+) {
+    for (row, (gram, fixed)) in grams.into_iter().zip(fixed).enumerate() {
+        gram.push(&fixed, &distortion_row::<_, N>(dd, row, c), r[row] * c);
+    }
+}
+
+/// The residual block's Gram matrix and gradient, zeroed, with the column count.
+#[inline]
+fn cleared<'g>(gram: &'g mut GramBlocks<'_>) -> (usize, &'g mut [f64], &'g mut [f64]) {
+    let n = gram.cols();
+    let (g, gradient) = gram.parts_mut();
+    g.fill(0.0);
+    gradient.fill(0.0);
+    (n, g, gradient)
 }
 
 /// The distortion derivatives of one pixel row (`row` 0: x, 1: y), `N` of them.
@@ -139,197 +187,250 @@ fn distortion_row<J: ParamJacobian, const N: usize>(dd: &J, row: usize, scale: f
     std::array::from_fn(|k| s[2 * k + row] * scale)
 }
 
-/// Fills `gram` with the normal-equation blocks of an observation by the reference camera
-/// (residual block `[camera, frame pose (, focal source)]`). Returns the sum over points of
-/// `rho(w s)` (`s` the squared residual in px^2), or the index (in the observation) of the
-/// first point the camera cannot see. Cost `O(n)`, no allocation. `SCALED = false` is the
-/// unweighted least-squares case (all weights one, trivial loss), compiled without the
-/// per-point scaling.
-pub(crate) fn reference_view<D, P, const N: usize, const SCALED: bool>(
-    camera: &Camera<D, P>,
-    pose: &DifferentiablePose,
-    view: &ViewInput<'_>,
-    gram: &mut GramBlocks<'_>,
-) -> Result<f64, usize>
-where
-    D: LensDistortion<ParamJacobian = SMatrix<f64, 2, N>>,
-    P: Projection,
-{
-    let loss = gram.loss();
-    let obs = view.observation;
-    let (mut gx, mut gy) = (
-        PartitionedGram::<8, N>::new(),
-        PartitionedGram::<8, N>::new(),
+/// How a view's board points reach the camera, and what the fixed part of a compact row holds:
+/// the reference camera's pose, or a frame pose composed with a rig transform. `F` is the width
+/// of the fixed part.
+trait ViewGeometry<const F: usize> {
+    /// What a point's rows need besides the projection's Jacobian.
+    type Point;
+
+    /// The camera-frame point of board point `x`, and its per-point data.
+    fn transform(&self, x: &Point3<f64>) -> (Vector3<f64>, Self::Point);
+
+    /// The fixed part of pixel row `row` (0: x, 1: y): `[d focal, 1, geometry entries]`, all
+    /// scaled by `c`; `ds` is `dp/ds` of the projection (2x3).
+    fn fixed_row(
+        &self,
+        point: &Self::Point,
+        x: &Point3<f64>,
+        ds: &Matrix2x3<f64>,
+        row: usize,
+        focal: f64,
+        c: f64,
+    ) -> [f64; F];
+
+    /// Adds the sums of the x and y rows onto the residual block's Gram matrix and gradient.
+    fn scatter<const N: usize>(
+        &self,
+        sums: [&CompactGram<F, N>; 2],
+        view: &ViewInput<'_>,
+        gram: &mut [f64],
+        gradient: &mut [f64],
+        n: usize,
     );
-    let mut total = 0.0;
-    for (i, (x, m)) in obs.object.iter().zip(&obs.pixels).enumerate() {
-        let (s, ds_dm) = pose.transform_with_jacobian(x);
-        let j = camera
-            .project_camera_point_with_jacobians(&s)
-            .map_err(|_| i)?;
-        let d_pose = j.d_camera_point * ds_dm;
-        let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
-        // Unweighted least squares (the common case) compiles without the scaling.
-        let (rho, c) = if SCALED {
-            let w = obs.weights.as_ref().map_or(1.0, |w| w[i]);
-            point_scale(loss, w, rx * rx + ry * ry)
-        } else {
-            (rx * rx + ry * ry, 1.0)
-        };
-        total += rho;
-        let fixed = |r: usize, focal: f64| {
-            [
-                focal * c,
-                c,
-                d_pose[(r, 0)] * c,
-                d_pose[(r, 1)] * c,
-                d_pose[(r, 2)] * c,
-                d_pose[(r, 3)] * c,
-                d_pose[(r, 4)] * c,
-                d_pose[(r, 5)] * c,
-            ]
-        };
-        gx.push(
-            &fixed(0, j.d_intrinsics[(0, 0)]),
-            &distortion_row::<_, N>(&j.d_distortion, 0, c),
-            rx * c,
-        );
-        gy.push(
-            &fixed(1, j.d_intrinsics[(1, 1)]),
-            &distortion_row::<_, N>(&j.d_distortion, 1, c),
-            ry * c,
-        );
-    }
-    let n = gram.cols();
-    let (g, gradient) = gram.parts_mut();
-    g.fill(0.0);
-    gradient.fill(0.0);
-    // At most 8 + 12 targets: a fixed array, no allocation.
-    let mut targets = [None; 8 + 16];
-    for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
-        let t = &mut targets[..8 + N];
-        t.fill(None);
-        t[0] = if row_y { view.focal.y } else { view.focal.x };
-        if let Some(c) = view.camera_col {
-            t[1] = Some((c + if row_y { 3 } else { 2 }, 1.0));
-            for k in 0..N {
-                t[8 + k] = Some((c + 4 + k, 1.0));
-            }
-        }
-        if let Some(p) = view.pose_col {
-            for k in 0..6 {
-                t[2 + k] = Some((p + k, 1.0));
-            }
-        }
-        sums.scatter(t, g, gradient, n);
-    }
-    Ok(total)
 }
 
-/// Fills `gram` with the normal-equation blocks of an observation by a camera other than the
-/// reference (residual block `[camera, frame pose, rig (, focal source)]`); see the module
-/// documentation for the compact rows. Returns as [`reference_view`].
-pub(crate) fn rig_view<D, P, const N: usize, const SCALED: bool>(
+/// The reference camera: `s = R_f X + t_f`; fixed part `[d focal, 1, d/dpose (6)]`.
+struct ReferenceGeometry<'a> {
+    pose: &'a DifferentiablePose,
+}
+
+impl ViewGeometry<8> for ReferenceGeometry<'_> {
+    type Point = Matrix3x6<f64>;
+
+    #[inline(always)]
+    fn transform(&self, x: &Point3<f64>) -> (Vector3<f64>, Matrix3x6<f64>) {
+        self.pose.transform_with_jacobian(x)
+    }
+
+    #[inline(always)]
+    fn fixed_row(
+        &self,
+        ds_dm: &Matrix3x6<f64>,
+        _x: &Point3<f64>,
+        ds: &Matrix2x3<f64>,
+        row: usize,
+        focal: f64,
+        c: f64,
+    ) -> [f64; 8] {
+        let d = ds.row(row) * ds_dm;
+        [
+            focal * c,
+            c,
+            d[0] * c,
+            d[1] * c,
+            d[2] * c,
+            d[3] * c,
+            d[4] * c,
+            d[5] * c,
+        ]
+    }
+
+    fn scatter<const N: usize>(
+        &self,
+        sums: [&CompactGram<8, N>; 2],
+        view: &ViewInput<'_>,
+        gram: &mut [f64],
+        gradient: &mut [f64],
+        n: usize,
+    ) {
+        // At most 8 + 16 targets: a fixed array, no allocation.
+        let mut targets = [None; 8 + 16];
+        for (row, sums) in sums.into_iter().enumerate() {
+            let t = &mut targets[..8 + N];
+            t.fill(None);
+            t[0] = [view.focal.x, view.focal.y][row];
+            if let Some(c) = view.camera_col {
+                t[1] = Some((c + 2 + row, 1.0));
+                for k in 0..N {
+                    t[8 + k] = Some((c + 4 + k, 1.0));
+                }
+            }
+            if let Some(p) = view.pose_col {
+                for k in 0..6 {
+                    t[2 + k] = Some((p + k, 1.0));
+                }
+            }
+            sums.scatter(t, gram, gradient, n);
+        }
+    }
+}
+
+/// Another camera: `q = R_f X + t_f`, `s = R_c q + t_c`; fixed part
+/// `[d focal, 1, D, q x D, X x R_f^T D]` with `D = (dp/ds) R_c` (see the module documentation).
+struct RigGeometry<'a> {
+    pose: &'a DifferentiablePose,
+    rig: &'a DifferentiablePose,
+    omega_pose: Matrix3<f64>,
+    omega_rig: Matrix3<f64>,
+    pose_rotation_t: Matrix3<f64>,
+}
+
+impl<'a> RigGeometry<'a> {
+    fn new(pose: &'a DifferentiablePose, rig: &'a DifferentiablePose) -> Self {
+        Self {
+            pose,
+            rig,
+            omega_pose: pose.body_generators(),
+            omega_rig: rig.body_generators(),
+            pose_rotation_t: pose.rotation.transpose(),
+        }
+    }
+}
+
+impl ViewGeometry<11> for RigGeometry<'_> {
+    type Point = Vector3<f64>;
+
+    #[inline(always)]
+    fn transform(&self, x: &Point3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let q = self.pose.rotation * x.coords + self.pose.translation;
+        (self.rig.rotation * q + self.rig.translation, q)
+    }
+
+    #[inline(always)]
+    fn fixed_row(
+        &self,
+        q: &Vector3<f64>,
+        x: &Point3<f64>,
+        ds: &Matrix2x3<f64>,
+        row: usize,
+        focal: f64,
+        c: f64,
+    ) -> [f64; 11] {
+        let dr: Vector3<f64> = (ds.row(row) * self.rig.rotation).transpose();
+        let e = q.cross(&dr);
+        let f = x.coords.cross(&(self.pose_rotation_t * dr));
+        [
+            focal * c,
+            c,
+            dr.x * c,
+            dr.y * c,
+            dr.z * c,
+            e.x * c,
+            e.y * c,
+            e.z * c,
+            f.x * c,
+            f.y * c,
+            f.z * c,
+        ]
+    }
+
+    fn scatter<const N: usize>(
+        &self,
+        sums: [&CompactGram<11, N>; 2],
+        view: &ViewInput<'_>,
+        gram: &mut [f64],
+        gradient: &mut [f64],
+        n: usize,
+    ) {
+        // At most 1 + 1 + 16 camera + 3 + 9 pose + 18 rig entries: a fixed array.
+        let mut storage = [(0usize, 0usize, 0.0f64); 64];
+        for (row, sums) in sums.into_iter().enumerate() {
+            let mut count = 0;
+            let mut push = |e: (usize, usize, f64)| {
+                storage[count] = e;
+                count += 1;
+            };
+            if let Some((col, factor)) = [view.focal.x, view.focal.y][row] {
+                push((0, col, factor));
+            }
+            if let Some(c) = view.camera_col {
+                push((1, c + 2 + row, 1.0));
+                for k in 0..N {
+                    push((11 + k, c + 4 + k, 1.0));
+                }
+            }
+            for k in 0..3 {
+                if let Some(p) = view.pose_col {
+                    push((2 + k, p + 3 + k, 1.0));
+                    for i in 0..3 {
+                        push((8 + i, p + k, self.omega_pose[(i, k)]));
+                    }
+                }
+                if let Some(c) = view.rig_col {
+                    for i in 0..3 {
+                        push((2 + i, c + 3 + k, self.rig.rotation[(k, i)]));
+                        push((5 + i, c + k, self.omega_rig[(i, k)]));
+                    }
+                }
+            }
+            sums.scatter_map(&storage[..count], gram, gradient, n);
+        }
+    }
+}
+
+/// Fills `gram` with the normal-equation blocks of one observation, point by point. Returns the
+/// sum over points of `rho(w s)` (`s` the squared residual in px^2), or the index (in the
+/// observation) of the first point the camera cannot see. Cost `O(n)`, no allocation.
+/// `SCALED = false` is the unweighted least-squares case (all weights one, trivial loss),
+/// compiled without the per-point scaling.
+fn accumulate<D, P, G, const F: usize, const N: usize, const SCALED: bool>(
     camera: &Camera<D, P>,
-    pose: &DifferentiablePose,
-    rig: &DifferentiablePose,
+    geometry: &G,
     view: &ViewInput<'_>,
     gram: &mut GramBlocks<'_>,
 ) -> Result<f64, usize>
 where
     D: LensDistortion<ParamJacobian = SMatrix<f64, 2, N>>,
     P: Projection,
+    G: ViewGeometry<F>,
 {
     let loss = gram.loss();
     let obs = view.observation;
-    let (omega_pose, omega_rig) = (pose.body_generators(), rig.body_generators());
-    let r_pose_t: Matrix3<f64> = pose.rotation.transpose();
-    let (mut gx, mut gy) = (
-        PartitionedGram::<11, N>::new(),
-        PartitionedGram::<11, N>::new(),
-    );
+    let (mut gx, mut gy) = (CompactGram::<F, N>::new(), CompactGram::<F, N>::new());
     let mut total = 0.0;
     for (i, (x, m)) in obs.object.iter().zip(&obs.pixels).enumerate() {
-        let q = pose.rotation * x.coords + pose.translation;
-        let s = rig.rotation * q + rig.translation;
+        let (s, point) = geometry.transform(x);
         let j = camera
             .project_camera_point_with_jacobians(&s)
             .map_err(|_| i)?;
-        let d = j.d_camera_point * rig.rotation;
         let (rx, ry) = (j.pixel.x - m.x, j.pixel.y - m.y);
-        // Unweighted least squares (the common case) compiles without the scaling.
-        let (rho, c) = if SCALED {
-            let w = obs.weights.as_ref().map_or(1.0, |w| w[i]);
-            point_scale(loss, w, rx * rx + ry * ry)
-        } else {
-            (rx * rx + ry * ry, 1.0)
-        };
+        let (rho, c) = scale::<SCALED>(obs, i, loss, rx, ry);
         total += rho;
-        let fixed = |r: usize, focal: f64| {
-            let dr = Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]);
-            let e = q.cross(&dr);
-            let f = x.coords.cross(&(r_pose_t * dr));
+        let ds = &j.d_camera_point;
+        push_rows(
+            [&mut gx, &mut gy],
             [
-                focal * c,
-                c,
-                dr.x * c,
-                dr.y * c,
-                dr.z * c,
-                e.x * c,
-                e.y * c,
-                e.z * c,
-                f.x * c,
-                f.y * c,
-                f.z * c,
-            ]
-        };
-        gx.push(
-            &fixed(0, j.d_intrinsics[(0, 0)]),
-            &distortion_row::<_, N>(&j.d_distortion, 0, c),
-            rx * c,
-        );
-        gy.push(
-            &fixed(1, j.d_intrinsics[(1, 1)]),
-            &distortion_row::<_, N>(&j.d_distortion, 1, c),
-            ry * c,
+                geometry.fixed_row(&point, x, ds, 0, j.d_intrinsics[(0, 0)], c),
+                geometry.fixed_row(&point, x, ds, 1, j.d_intrinsics[(1, 1)], c),
+            ],
+            &j.d_distortion,
+            [rx, ry],
+            c,
         );
     }
-    let n = gram.cols();
-    let (g, gradient) = gram.parts_mut();
-    g.fill(0.0);
-    gradient.fill(0.0);
-    // At most 1 + 1 + 16 camera + 3 + 9 pose + 3 + 9 rig... entries: a fixed array.
-    let mut storage = [(0usize, 0usize, 0.0f64); 64];
-    for (row_y, sums) in [(false, gx.finish()), (true, gy.finish())] {
-        let mut count = 0;
-        let mut push = |e: (usize, usize, f64)| {
-            storage[count] = e;
-            count += 1;
-        };
-        if let Some((col, factor)) = if row_y { view.focal.y } else { view.focal.x } {
-            push((0, col, factor));
-        }
-        if let Some(c) = view.camera_col {
-            push((1, c + if row_y { 3 } else { 2 }, 1.0));
-            for k in 0..N {
-                push((11 + k, c + 4 + k, 1.0));
-            }
-        }
-        for k in 0..3 {
-            if let Some(p) = view.pose_col {
-                push((2 + k, p + 3 + k, 1.0));
-                for i in 0..3 {
-                    push((8 + i, p + k, omega_pose[(i, k)]));
-                }
-            }
-            if let Some(c) = view.rig_col {
-                for i in 0..3 {
-                    push((2 + i, c + 3 + k, rig.rotation[(k, i)]));
-                    push((5 + i, c + k, omega_rig[(i, k)]));
-                }
-            }
-        }
-        sums.scatter_map(&storage[..count], g, gradient, n);
-    }
+    let (n, g, gradient) = cleared(gram);
+    let (gx, gy) = (gx.finish(), gy.finish());
+    geometry.scatter([gx, gy], view, g, gradient, n);
     Ok(total)
 }

@@ -29,7 +29,7 @@ pub use cost::JointCost;
 pub use data::{ImageSize, View};
 pub use error::{CalibrationError, PointKind};
 pub use init::FocalInit;
-pub use io::{ReadError, read_text, write_atomically};
+pub use io::{JsonFile, ReadError, read_text, write_atomically};
 pub use options::{CalibrationOptions, default_solver_options};
 pub use problem::{CameraSpec, JointProblem, ObservationSpec, ProblemError};
 pub use result::{CameraEstimate, SkippedView, StageTimes, ViewResult};

@@ -25,6 +25,25 @@ pub mod seconds {
     }
 }
 
+/// Deserializes a result file of type `T` after checking that its `format` key starts with
+/// `prefix` (e.g. `calib-single-result/`); `what` names the kind for the message.
+pub fn deserialize_versioned<T: serde::de::DeserializeOwned>(
+    value: serde_json::Value,
+    prefix: &str,
+    what: &str,
+) -> Result<T, String> {
+    let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+    if !format.starts_with(prefix) {
+        return Err(format!("not a {what} result (format '{format}')"));
+    }
+    serde_json::from_value(value).map_err(|e| e.to_string())
+}
+
+/// A duration from seconds (negative or non-finite values become zero).
+pub fn duration_from_seconds(seconds: f64) -> Duration {
+    Duration::try_from_secs_f64(seconds.max(0.0)).unwrap_or_default()
+}
+
 /// A calibrated camera with its uncertainties.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(into = "CameraEstimateJson", try_from = "CameraEstimateJson")]

@@ -213,18 +213,29 @@ pub fn true_camera(config: &SyntheticConfig) -> Result<AnyCamera, SyntheticError
         .map_err(|e| SyntheticError::Invalid(e.to_string()))
 }
 
+/// The board of `config` (points, row-major), its width and its centre, board units.
+pub fn board_geometry(config: &SyntheticConfig) -> (Vec<Point3<f64>>, f64, Vector3<f64>) {
+    let board = board_points(config.board_cols, config.board_rows, config.square);
+    let width = (config.board_cols - 1) as f64 * config.square;
+    let height = (config.board_rows - 1) as f64 * config.square;
+    (board, width, Vector3::new(width / 2.0, height / 2.0, 0.0))
+}
+
+/// The pixels with independent Gaussian noise of standard deviation `noise_px` on each
+/// coordinate.
+pub fn add_noise(pixels: Vec<Point2<f64>>, noise_px: f64, rng: &mut Rng) -> Vec<Point2<f64>> {
+    pixels
+        .into_iter()
+        .map(|p| Point2::new(p.x + noise_px * rng.normal(), p.y + noise_px * rng.normal()))
+        .collect()
+}
+
 /// Generates a single-camera data set.
 pub fn generate(config: &SyntheticConfig) -> Result<SyntheticSet, SyntheticError> {
     check_config(config)?;
     let mut rng = Rng::new(config.seed);
     let camera = true_camera(config)?;
-    let board = board_points(config.board_cols, config.board_rows, config.square);
-    let board_width = (config.board_cols - 1) as f64 * config.square;
-    let centre = Vector3::new(
-        board_width / 2.0,
-        (config.board_rows - 1) as f64 * config.square / 2.0,
-        0.0,
-    );
+    let (board, board_width, centre) = board_geometry(config);
     let mut views = Vec::with_capacity(config.views);
     let mut poses = Vec::with_capacity(config.views);
     for view in 0..config.views {
@@ -234,15 +245,7 @@ pub fn generate(config: &SyntheticConfig) -> Result<SyntheticSet, SyntheticError
                 project_inside(&camera, &pose, &board, config.image_size, 5.0).map(|p| (pose, p))
             })
             .ok_or(SyntheticError::CannotPlaceBoard { view })?;
-        let image_points = pixels
-            .into_iter()
-            .map(|p| {
-                Point2::new(
-                    p.x + config.noise_px * rng.normal(),
-                    p.y + config.noise_px * rng.normal(),
-                )
-            })
-            .collect();
+        let image_points = add_noise(pixels, config.noise_px, &mut rng);
         views.push(View {
             name: format!("synthetic{view}"),
             object_points: board.clone(),

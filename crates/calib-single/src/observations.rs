@@ -11,6 +11,7 @@
 //!
 //! Unknown keys are ignored.
 
+use calib_core::JsonFile;
 pub use calib_core::data::{ImageSize, View};
 pub use calib_core::single::{PLANARITY_TOLERANCE, check_view};
 use nalgebra::{Point2, Point3};
@@ -27,48 +28,28 @@ pub struct Observations {
 
 pub use calib_core::io::ReadError;
 
+/// The serde form of one view.
 #[derive(Deserialize)]
-struct ViewFile {
+pub struct ViewFile {
     #[serde(default)]
     image: Option<String>,
     object_points: Vec<[f64; 3]>,
     image_points: Vec<[f64; 2]>,
 }
 
+/// The serde form of a single-camera observation file (see the module documentation).
 #[derive(Deserialize)]
-struct ObservationFile {
+pub struct ObservationFile {
     #[serde(default)]
     image_size: Option<[u32; 2]>,
     views: Vec<ViewFile>,
 }
 
-impl Observations {
-    /// Parses the JSON observation format.
-    pub fn from_json(text: &str) -> Result<Self, ReadError> {
-        Self::parse(text, "<string>")
-    }
+impl JsonFile for Observations {
+    type File = ObservationFile;
 
-    /// Reads a JSON observation file (at most [`calib_core::io::DEFAULT_MAX_INPUT_BYTES`]).
-    pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        Self::read_bounded(path, calib_core::io::DEFAULT_MAX_INPUT_BYTES)
-    }
-
-    /// Reads a JSON observation file of at most `max_bytes` bytes.
-    pub fn read_bounded(
-        path: impl AsRef<std::path::Path>,
-        max_bytes: u64,
-    ) -> Result<Self, ReadError> {
-        let (text, name) = calib_core::io::read_text(path.as_ref(), max_bytes)?;
-        Self::parse(&text, &name)
-    }
-
-    fn parse(text: &str, path: &str) -> Result<Self, ReadError> {
-        let file: ObservationFile =
-            serde_json::from_str(text).map_err(|source| ReadError::Json {
-                path: path.to_string(),
-                source,
-            })?;
-        Ok(Self {
+    fn from_file(file: ObservationFile) -> Self {
+        Self {
             image_size: file.image_size.map(|[w, h]| ImageSize::new(w, h)),
             views: file
                 .views
@@ -88,9 +69,11 @@ impl Observations {
                         .collect(),
                 })
                 .collect(),
-        })
+        }
     }
+}
 
+impl Observations {
     /// Total number of points over all views.
     pub fn num_points(&self) -> usize {
         self.views.iter().map(|v| v.object_points.len()).sum()

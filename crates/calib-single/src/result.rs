@@ -6,6 +6,7 @@ use calib_core::ImageSize;
 pub use calib_core::result::{
     CameraEstimate, SkippedView, StageTimes, ViewResult, write_camera_summary,
 };
+use calib_core::result::{deserialize_versioned, duration_from_seconds};
 use camera_model::{AnyCamera, Intrinsics, RotationKind};
 use lm_solver::SolverReport;
 use serde::{Deserialize, Serialize};
@@ -89,17 +90,6 @@ struct CalibrationJson {
     solver: SolverReport,
 }
 
-fn rotation_kind(name: &str) -> Result<RotationKind, String> {
-    [
-        RotationKind::EulerXyz,
-        RotationKind::AxisAngle,
-        RotationKind::So3,
-    ]
-    .into_iter()
-    .find(|k| k.name() == name)
-    .ok_or_else(|| format!("unknown rotation parameterization '{name}'"))
-}
-
 impl Calibration {
     /// The camera with its uncertainties as a [`CameraEstimate`] named "camera".
     pub fn estimate(&self) -> CameraEstimate {
@@ -165,20 +155,15 @@ impl Calibration {
 
     /// Reads a result written by [`Calibration::to_json`].
     pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
-        let j: CalibrationJson = serde_json::from_value(value).map_err(|e| e.to_string())?;
-        if !j.format.starts_with("calib-single-result/") {
-            return Err(format!(
-                "not a single-camera result (format '{}')",
-                j.format
-            ));
-        }
+        let j: CalibrationJson =
+            deserialize_versioned(value, "calib-single-result/", "single-camera")?;
         Ok(Calibration {
             camera: j.camera.camera,
             intrinsics_std: j.camera.intrinsics_std,
             distortion_std: j.camera.distortion_std,
             fixed_parameters: j.camera.fixed_parameters,
             image_size: j.image_size,
-            rotation: rotation_kind(&j.rotation_parameterization)?,
+            rotation: j.rotation_parameterization.parse()?,
             views: j.views,
             skipped_views: j.skipped_views,
             rms: j.rms,
@@ -193,7 +178,7 @@ impl Calibration {
             ),
             initial_rms: j.initial.rms,
             solver: j.solver,
-            elapsed: Duration::try_from_secs_f64(j.elapsed_seconds.max(0.0)).unwrap_or_default(),
+            elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: j.stage_seconds,
         })
     }

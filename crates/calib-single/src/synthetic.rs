@@ -3,8 +3,8 @@
 
 use crate::observations::Observations;
 pub use calib_core::synthetic::{
-    MIN_DISTORTION_JACOBIAN, SyntheticConfig, SyntheticError, board_points, check_config,
-    inside_lens_field, project_inside, random_pose, true_camera,
+    MIN_DISTORTION_JACOBIAN, SyntheticConfig, SyntheticError, add_noise, board_geometry,
+    board_points, check_config, inside_lens_field, project_inside, random_pose, true_camera,
 };
 use camera_model::{AnyCamera, Pose};
 

@@ -2,6 +2,7 @@
 //! minimum OpenCV 5 reaches on the same observations with k3 fixed to zero (the same model).
 //! The reference numbers are read from the bundled data files, never written here.
 
+use calib_core::JsonFile;
 use calib_single::{CalibrationOptions, Observations, calibrate};
 use serde_json::Value;
 

@@ -35,6 +35,7 @@ pub mod options;
 pub mod result;
 pub mod synthetic;
 
+pub use calib_core::JsonFile;
 pub use calib_core::rig;
 pub use calib_core::rig::RigInit;
 pub use calibrate::{calibrate_stereo, stereo_problem};

@@ -15,7 +15,8 @@
 //! the same board coordinates.
 
 use crate::error::{Side, StereoError};
-use calib_single::{ImageSize, Observations, ReadError, View};
+use calib_core::JsonFile;
+use calib_single::{ImageSize, Observations, View};
 use nalgebra::{Point2, Point3};
 use serde::Deserialize;
 
@@ -39,8 +40,9 @@ pub struct StereoObservations {
     pub pairs: Vec<StereoPair>,
 }
 
+/// The serde form of one pair.
 #[derive(Deserialize)]
-struct PairFile {
+pub struct PairFile {
     #[serde(default)]
     left_image: Option<String>,
     #[serde(default)]
@@ -55,8 +57,9 @@ struct PairFile {
     right_points: Vec<[f64; 2]>,
 }
 
+/// The serde form of a stereo observation file (see the module documentation).
 #[derive(Deserialize)]
-struct StereoFile {
+pub struct StereoFile {
     #[serde(default)]
     image_size: Option<[u32; 2]>,
     #[serde(default)]
@@ -72,32 +75,10 @@ fn points2(v: &[[f64; 2]]) -> Vec<Point2<f64>> {
     v.iter().map(|p| Point2::new(p[0], p[1])).collect()
 }
 
-impl StereoObservations {
-    /// Parses the JSON stereo format.
-    pub fn from_json(text: &str) -> Result<Self, ReadError> {
-        Self::parse(text, "<string>")
-    }
+impl JsonFile for StereoObservations {
+    type File = StereoFile;
 
-    /// Reads a JSON stereo observation file (at most
-    /// [`calib_core::io::DEFAULT_MAX_INPUT_BYTES`]).
-    pub fn read(path: impl AsRef<std::path::Path>) -> Result<Self, ReadError> {
-        Self::read_bounded(path, calib_core::io::DEFAULT_MAX_INPUT_BYTES)
-    }
-
-    /// Reads a JSON stereo observation file of at most `max_bytes` bytes.
-    pub fn read_bounded(
-        path: impl AsRef<std::path::Path>,
-        max_bytes: u64,
-    ) -> Result<Self, ReadError> {
-        let (text, name) = calib_core::io::read_text(path.as_ref(), max_bytes)?;
-        Self::parse(&text, &name)
-    }
-
-    fn parse(text: &str, path: &str) -> Result<Self, ReadError> {
-        let file: StereoFile = serde_json::from_str(text).map_err(|source| ReadError::Json {
-            path: path.to_string(),
-            source,
-        })?;
+    fn from_file(file: StereoFile) -> Self {
         let pairs = file
             .pairs
             .into_iter()
@@ -120,13 +101,15 @@ impl StereoObservations {
                 }
             })
             .collect();
-        Ok(Self {
+        Self {
             image_size: file.image_size.map(|[w, h]| ImageSize::new(w, h)),
             right_image_size: file.right_image_size.map(|[w, h]| ImageSize::new(w, h)),
             pairs,
-        })
+        }
     }
+}
 
+impl StereoObservations {
     /// The JSON form (the format [`StereoObservations::from_json`] reads): `object_points` when
     /// both views share their board points, `left_object_points` and `right_object_points`
     /// otherwise.

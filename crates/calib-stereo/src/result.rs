@@ -3,7 +3,7 @@
 //! reads it back.
 
 pub use calib_core::result::CameraEstimate;
-use calib_core::result::seconds;
+use calib_core::result::{deserialize_versioned, duration_from_seconds, seconds};
 use camera_model::{AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization};
 use lm_solver::SolverReport;
 use nalgebra::Matrix3;
@@ -231,18 +231,8 @@ impl StereoCalibration {
 
     /// Reads a result written by [`StereoCalibration::to_json`].
     pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
-        let j: StereoJson = serde_json::from_value(value).map_err(|e| e.to_string())?;
-        if !j.format.starts_with("calib-stereo-result/") {
-            return Err(format!("not a stereo result (format '{}')", j.format));
-        }
-        let rotation = [
-            RotationKind::EulerXyz,
-            RotationKind::AxisAngle,
-            RotationKind::So3,
-        ]
-        .into_iter()
-        .find(|k| k.name() == j.rig_parameterization)
-        .ok_or_else(|| format!("unknown rotation '{}'", j.rig_parameterization))?;
+        let j: StereoJson = deserialize_versioned(value, "calib-stereo-result/", "stereo")?;
+        let rotation: RotationKind = j.rig_parameterization.parse()?;
         let rig_rotation = from_rows(&j.r);
         Ok(StereoCalibration {
             left: j.left,
@@ -261,7 +251,7 @@ impl StereoCalibration {
             initial_rig: Pose::new(from_rows(&j.initial.r), j.initial.t.into()),
             initial_rms: j.initial.rms,
             solver: j.solver,
-            elapsed: Duration::try_from_secs_f64(j.elapsed_seconds.max(0.0)).unwrap_or_default(),
+            elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: [
                 j.stage_seconds.left_single_camera,
                 j.stage_seconds.right_single_camera,

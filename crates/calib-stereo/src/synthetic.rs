@@ -2,13 +2,13 @@
 
 use crate::observations::{StereoObservations, StereoPair};
 use calib_single::synthetic::{
-    SyntheticConfig, SyntheticError, board_points, check_config, project_inside, random_pose,
-    true_camera,
+    SyntheticConfig, SyntheticError, add_noise, board_geometry, check_config, project_inside,
+    random_pose, true_camera,
 };
 use calib_single::{ImageSize, View};
 use camera_model::{AnyCamera, CameraModel, EulerXyz, Intrinsics, Pose, RotationParameterization};
 use lm_solver::Rng;
-use nalgebra::{Point2, Vector3};
+use nalgebra::Vector3;
 
 /// What to generate. Board, noise, tilt, view count, seed and the left camera come from `left`.
 #[derive(Debug, Clone, PartialEq)]
@@ -75,26 +75,9 @@ pub fn generate_stereo(
         config.right_distortion.clone(),
     )
     .map_err(|e| SyntheticError::Invalid(format!("right camera: {e}")))?;
-    let board = board_points(base.board_cols, base.board_rows, base.square);
-    let width = (base.board_cols - 1) as f64 * base.square;
-    let centre = Vector3::new(
-        width / 2.0,
-        (base.board_rows - 1) as f64 * base.square / 2.0,
-        0.0,
-    );
+    let (board, width, centre) = board_geometry(base);
     let mut pairs = Vec::with_capacity(base.views);
     let mut poses = Vec::with_capacity(base.views);
-    let noisy = |pixels: Vec<Point2<f64>>, rng: &mut Rng| -> Vec<Point2<f64>> {
-        pixels
-            .into_iter()
-            .map(|p| {
-                Point2::new(
-                    p.x + base.noise_px * rng.normal(),
-                    p.y + base.noise_px * rng.normal(),
-                )
-            })
-            .collect()
-    };
     for view in 0..base.views {
         let (pose, l, r) = (0..2000)
             .find_map(|_| {
@@ -114,12 +97,12 @@ pub fn generate_stereo(
             left: View {
                 name: format!("left{view}"),
                 object_points: board.clone(),
-                image_points: noisy(l, &mut rng),
+                image_points: add_noise(l, base.noise_px, &mut rng),
             },
             right: View {
                 name: format!("right{view}"),
                 object_points: board.clone(),
-                image_points: noisy(r, &mut rng),
+                image_points: add_noise(r, base.noise_px, &mut rng),
             },
         });
         poses.push(pose);

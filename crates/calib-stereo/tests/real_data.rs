@@ -1,6 +1,7 @@
 //! Real stereo observations: the joint calibration must reach the minimum OpenCV 5's
 //! stereoCalibrate (k3 fixed, intrinsics free) reaches. Reference numbers come from the data files.
 
+use calib_core::JsonFile;
 use calib_stereo::{StereoObservations, StereoOptions, calibrate_stereo, stereo_problem};
 use camera_model::{AnyCamera, AxisAngle, CameraModel, Intrinsics, Pose, RotationParameterization};
 use nalgebra::{Matrix3, Vector3};

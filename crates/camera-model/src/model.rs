@@ -206,6 +206,16 @@ pub struct AnyCamera {
     pub distortion: Vec<f64>,
 }
 
+/// Runs `$body` with `$camera` bound to the typed [`Camera`] of an [`AnyCamera`].
+macro_rules! with_typed_camera {
+    ($any:expr, $camera:ident => $body:expr) => {
+        dispatch_camera_model!($any.model, D, P => {
+            let $camera = Camera::<D, P>::from_parts($any.intrinsics, D::from_params(&$any.distortion));
+            $body
+        })
+    };
+}
+
 impl AnyCamera {
     /// A camera; errors if `distortion` does not have the model's number of coefficients.
     pub fn new(
@@ -278,10 +288,7 @@ impl AnyCamera {
 
     /// Pixel of a camera-frame point.
     pub fn project_camera_point(&self, s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
-        dispatch_camera_model!(self.model, D, P => {
-            let camera = Camera::<D, P>::from_parts(self.intrinsics, D::from_params(&self.distortion));
-            camera.project_camera_point(s)
-        })
+        with_typed_camera!(self, camera => camera.project_camera_point(s))
     }
 
     /// Pixel of a world point seen from `pose` (world to camera).
@@ -300,10 +307,7 @@ impl AnyCamera {
         pixel: &Vector2<f64>,
         options: &UndistortOptions,
     ) -> Result<Vector2<f64>, CameraModelError> {
-        dispatch_camera_model!(self.model, D, P => {
-            let camera = Camera::<D, P>::from_parts(self.intrinsics, D::from_params(&self.distortion));
-            camera.undistort_pixel(pixel, options)
-        })
+        with_typed_camera!(self, camera => camera.undistort_pixel(pixel, options))
     }
 
     /// The unit viewing ray (camera frame) through `pixel`.
@@ -312,10 +316,7 @@ impl AnyCamera {
         pixel: &Vector2<f64>,
         options: &UndistortOptions,
     ) -> Result<Unit<Vector3<f64>>, CameraModelError> {
-        dispatch_camera_model!(self.model, D, P => {
-            let camera = Camera::<D, P>::from_parts(self.intrinsics, D::from_params(&self.distortion));
-            camera.pixel_to_ray(pixel, options)
-        })
+        with_typed_camera!(self, camera => camera.pixel_to_ray(pixel, options))
     }
 }
 

@@ -73,6 +73,22 @@ impl RotationKind {
     }
 }
 
+impl std::str::FromStr for RotationKind {
+    type Err = String;
+
+    /// The names of [`RotationKind::name`]: `euler-xyz`, `axis-angle`, `so3`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        [
+            RotationKind::EulerXyz,
+            RotationKind::AxisAngle,
+            RotationKind::So3,
+        ]
+        .into_iter()
+        .find(|k| k.name() == s)
+        .ok_or_else(|| format!("unknown rotation parameterization '{s}'"))
+    }
+}
+
 /// Euler angles `(theta_x, theta_y, theta_z)` in radians, applied about the fixed axes X, then Y,
 /// then Z: `R = Rz(theta_z) * Ry(theta_y) * Rx(theta_x)`.
 ///

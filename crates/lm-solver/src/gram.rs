@@ -12,8 +12,8 @@
 //! // Two rows of a 3-column Jacobian whose rows only touch columns (0, 2) and (1, 2).
 //! let mut first = CompactGram::<2>::new();
 //! let mut second = CompactGram::<2>::new();
-//! first.push(&[1.0, 2.0], 0.5);
-//! second.push(&[3.0, 4.0], -1.0);
+//! first.push(&[1.0, 2.0], &[], 0.5);
+//! second.push(&[3.0, 4.0], &[], -1.0);
 //! let (mut gram, mut gradient) = (vec![0.0; 9], vec![0.0; 3]);
 //! first.finish().scatter(&[Some((0, 1.0)), Some((2, 1.0))], &mut gram, &mut gradient, 3);
 //! second.finish().scatter(&[Some((1, 1.0)), Some((2, 1.0))], &mut gram, &mut gradient, 3);
@@ -27,187 +27,17 @@ pub const BATCH: usize = 8;
 /// Lanes of the partial sums: each entry keeps four running sums, reduced once in `finish`.
 const LANES: usize = 4;
 
-/// Accumulates `sum u u^T` and `sum r u` over compact rows `u` of width `W`.
+/// Accumulates `sum u u^T` and `sum r u` over compact rows `u = [fixed, model]` made of a part of
+/// fixed width `F` and a part of width `N` (entries `0..F` and `F..F + N` of the combined row;
+/// `N` defaults to 0).
+///
+/// The split lets a cost function generic over a model with `N` parameters size its accumulator
+/// without arithmetic on const generics (`[f64; F + N]` is not expressible in generic code):
+/// calibration's rows are `F` pose and intrinsic entries plus the `N` distortion derivatives of
+/// the lens model. Each entry is reduced over a batch of [`BATCH`] rows in four lanes, the same
+/// operations in the same order whatever the instruction set, so results are reproducible.
 #[derive(Debug, Clone)]
-pub struct CompactGram<const W: usize> {
-    rows: [[f64; BATCH]; W],
-    residuals: [f64; BATCH],
-    filled: usize,
-    /// Four-lane partial sums of the upper triangle of `sum u u^T` and of `sum r u`.
-    lanes: [[[f64; LANES]; W]; W],
-    gradient_lanes: [[f64; LANES]; W],
-    /// The reduced sums (valid after `finish`).
-    sums: [[f64; W]; W],
-    gradient: [f64; W],
-}
-
-impl<const W: usize> Default for CompactGram<W> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<const W: usize> CompactGram<W> {
-    /// An empty accumulator.
-    pub fn new() -> Self {
-        Self {
-            rows: [[0.0; BATCH]; W],
-            residuals: [0.0; BATCH],
-            filled: 0,
-            lanes: [[[0.0; LANES]; W]; W],
-            gradient_lanes: [[0.0; LANES]; W],
-            sums: [[0.0; W]; W],
-            gradient: [0.0; W],
-        }
-    }
-
-    /// Adds one row `u` with residual `r`.
-    #[inline]
-    pub fn push(&mut self, u: &[f64; W], r: f64) {
-        let p = self.filled;
-        for (column, value) in self.rows.iter_mut().zip(u) {
-            column[p] = *value;
-        }
-        self.residuals[p] = r;
-        self.filled += 1;
-        if self.filled == BATCH {
-            self.flush();
-        }
-    }
-
-    /// Adds the buffered rows to the lane sums: lane `l` of entry `(a, c)` gains
-    /// `u_a[l] u_c[l] + u_a[l + 4] u_c[l + 4]`. The same operations in the same order whichever
-    /// instruction set runs them, so results never depend on the machine's vector width.
-    #[inline]
-    fn flush(&mut self) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { self.flush_avx2() };
-                self.filled = 0;
-                return;
-            }
-        }
-        self.flush_lanes();
-        self.filled = 0;
-    }
-
-    /// The loop compiled for AVX2 (four-wide vectors instead of SSE2's two). No fused
-    /// multiply-add is enabled, so the arithmetic, and the result, is that of `flush_lanes`.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn flush_avx2(&mut self) {
-        self.flush_lanes();
-    }
-
-    #[inline(always)]
-    fn flush_lanes(&mut self) {
-        for a in 0..W {
-            let ua = self.rows[a];
-            for c in a..W {
-                let uc = &self.rows[c];
-                let acc = &mut self.lanes[a][c];
-                for l in 0..LANES {
-                    acc[l] += ua[l] * uc[l] + ua[l + LANES] * uc[l + LANES];
-                }
-            }
-            let acc = &mut self.gradient_lanes[a];
-            for l in 0..LANES {
-                acc[l] += ua[l] * self.residuals[l] + ua[l + LANES] * self.residuals[l + LANES];
-            }
-        }
-    }
-
-    /// Reduces the rows still buffered and the lane sums, and returns the sums.
-    pub fn finish(&mut self) -> &Self {
-        if self.filled > 0 {
-            let filled = self.filled;
-            for column in self.rows.iter_mut() {
-                column[filled..].fill(0.0);
-            }
-            self.residuals[filled..].fill(0.0);
-            self.flush();
-        }
-        let reduce = |v: &[f64; LANES]| (v[0] + v[1]) + (v[2] + v[3]);
-        for a in 0..W {
-            for c in a..W {
-                self.sums[a][c] = reduce(&self.lanes[a][c]);
-            }
-            self.gradient[a] = reduce(&self.gradient_lanes[a]);
-        }
-        self
-    }
-
-    /// Entry `(a, b)` of `sum u u^T` (call [`CompactGram::finish`] first).
-    #[inline]
-    pub fn entry(&self, a: usize, b: usize) -> f64 {
-        if a <= b {
-            self.sums[a][b]
-        } else {
-            self.sums[b][a]
-        }
-    }
-
-    /// Entry `a` of `sum r u` (call [`CompactGram::finish`] first).
-    #[inline]
-    pub fn gradient(&self, a: usize) -> f64 {
-        self.gradient[a]
-    }
-
-    /// Adds the sums onto a column-major `n x n` Gram matrix and gradient: compact entry `a`
-    /// goes to column `targets[a].0` multiplied by `targets[a].1`, or nowhere for `None` (a
-    /// constant parameter block). Several compact entries may share a column.
-    pub fn scatter(
-        &self,
-        targets: &[Option<(usize, f64)>; W],
-        gram: &mut [f64],
-        gradient: &mut [f64],
-        n: usize,
-    ) {
-        for a in 0..W {
-            let Some((ca, fa)) = targets[a] else { continue };
-            gradient[ca] += fa * self.gradient[a];
-            for (c, target) in targets.iter().enumerate() {
-                if let Some((cc, fc)) = *target {
-                    gram[ca + cc * n] += fa * fc * self.entry(a, c);
-                }
-            }
-        }
-    }
-}
-
-impl<const W: usize> CompactGram<W> {
-    /// Adds `T S T^T` and `T g` onto a column-major `n x n` Gram matrix and gradient, for a
-    /// general linear map `T` from compact entries to columns given as a list of
-    /// `(compact entry, column, factor)`: column `c` of the real Jacobian row is
-    /// `sum factor * u[entry]` over the list's entries for `c`. Use this when a compact entry feeds
-    /// several columns; [`CompactGram::scatter`] is the one-to-one special case. Cost:
-    /// `entries^2` multiply-adds.
-    pub fn scatter_map(
-        &self,
-        entries: &[(usize, usize, f64)],
-        gram: &mut [f64],
-        gradient: &mut [f64],
-        n: usize,
-    ) {
-        for &(a, ca, fa) in entries {
-            gradient[ca] += fa * self.gradient[a];
-            for &(b, cb, fb) in entries {
-                gram[ca + cb * n] += fa * fb * self.entry(a, b);
-            }
-        }
-    }
-}
-
-/// Like [`CompactGram`], for compact rows made of a part of fixed width `F` and a part of width
-/// `N` (entries `0..F` and `F..F + N` of the combined row). A cost function generic over a model
-/// with `N` parameters can then size its accumulator without arithmetic on const generics
-/// (`CompactGram<{F + N}>` is not expressible): calibration's rows are `F` pose and intrinsic
-/// entries plus the `N` distortion derivatives of the lens model. Same arithmetic per entry as
-/// `CompactGram<F + N>`, so the same bits.
-#[derive(Debug, Clone)]
-pub struct PartitionedGram<const F: usize, const N: usize> {
+pub struct CompactGram<const F: usize, const N: usize = 0> {
     rows_f: [[f64; BATCH]; F],
     rows_n: [[f64; BATCH]; N],
     residuals: [f64; BATCH],
@@ -224,13 +54,13 @@ pub struct PartitionedGram<const F: usize, const N: usize> {
     sum_gradient_n: [f64; N],
 }
 
-impl<const F: usize, const N: usize> Default for PartitionedGram<F, N> {
+impl<const F: usize, const N: usize> Default for CompactGram<F, N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const F: usize, const N: usize> PartitionedGram<F, N> {
+impl<const F: usize, const N: usize> CompactGram<F, N> {
     /// Width of a combined row.
     pub const WIDTH: usize = F + N;
 
@@ -286,7 +116,8 @@ impl<const F: usize, const N: usize> PartitionedGram<F, N> {
         self.filled = 0;
     }
 
-    /// As [`CompactGram`]'s: AVX2 code without fused multiply-add, the same results.
+    /// The loop compiled for AVX2 (four-wide vectors instead of SSE2's two). No fused
+    /// multiply-add is enabled, so the arithmetic, and the result, is that of `flush_lanes`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn flush_avx2(&mut self) {
@@ -350,7 +181,7 @@ impl<const F: usize, const N: usize> PartitionedGram<F, N> {
         self
     }
 
-    /// Entry `(a, b)` of `sum u u^T` over combined rows (call [`PartitionedGram::finish`]
+    /// Entry `(a, b)` of `sum u u^T` over combined rows (call [`CompactGram::finish`]
     /// first).
     #[inline]
     pub fn entry(&self, a: usize, b: usize) -> f64 {
@@ -362,7 +193,7 @@ impl<const F: usize, const N: usize> PartitionedGram<F, N> {
         }
     }
 
-    /// Entry `a` of `sum r u` (call [`PartitionedGram::finish`] first).
+    /// Entry `a` of `sum r u` (call [`CompactGram::finish`] first).
     #[inline]
     pub fn gradient(&self, a: usize) -> f64 {
         if a < F {
@@ -372,7 +203,10 @@ impl<const F: usize, const N: usize> PartitionedGram<F, N> {
         }
     }
 
-    /// As [`CompactGram::scatter`], with `targets` of length `F + N` (combined entries).
+    /// Adds the sums onto a column-major `n x n` Gram matrix and gradient: combined entry `a`
+    /// goes to column `targets[a].0` multiplied by `targets[a].1`, or nowhere for `None` (a
+    /// constant parameter block). Several entries may share a column. `targets` has length
+    /// `F + N`.
     pub fn scatter(
         &self,
         targets: &[Option<(usize, f64)>],
@@ -392,7 +226,11 @@ impl<const F: usize, const N: usize> PartitionedGram<F, N> {
         }
     }
 
-    /// As [`CompactGram::scatter_map`], on combined entries.
+    /// Adds `T S T^T` and `T g` onto a column-major `n x n` Gram matrix and gradient, for a
+    /// general linear map `T` from combined entries to columns given as a list of
+    /// `(entry, column, factor)`: column `c` of the real Jacobian row is `sum factor * u[entry]`
+    /// over the list's entries for `c`. Use this when an entry feeds several columns;
+    /// [`CompactGram::scatter`] is the one-to-one special case. Cost: `entries^2` multiply-adds.
     pub fn scatter_map(
         &self,
         entries: &[(usize, usize, f64)],
@@ -427,10 +265,10 @@ mod tests {
                     .wrapping_add(1442695040888963407);
                 *v = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
             }
-            dispatched.push(&u, i as f64 * 0.01);
+            dispatched.push(&u, &[], i as f64 * 0.01);
             // The same rows through the plain loop only.
             let p = plain.filled;
-            for (column, value) in plain.rows.iter_mut().zip(&u) {
+            for (column, value) in plain.rows_f.iter_mut().zip(&u) {
                 column[p] = *value;
             }
             plain.residuals[p] = i as f64 * 0.01;
@@ -442,7 +280,7 @@ mod tests {
         }
         if plain.filled > 0 {
             let filled = plain.filled;
-            for column in plain.rows.iter_mut() {
+            for column in plain.rows_f.iter_mut() {
                 column[filled..].fill(0.0);
             }
             plain.residuals[filled..].fill(0.0);
@@ -465,7 +303,7 @@ mod tests {
         let residuals = [0.1, -0.2, 0.3];
         let mut g = CompactGram::<2>::new();
         for (u, r) in compact.iter().zip(&residuals) {
-            g.push(u, *r);
+            g.push(u, &[], *r);
         }
         let entries = [(0, 0, 1.0), (0, 1, 2.0), (1, 1, -1.0), (1, 2, 1.0)];
         let (mut gram, mut gradient) = (vec![0.0; 9], vec![0.0; 3]);
@@ -494,7 +332,7 @@ mod tests {
             let residuals: Vec<f64> = (0..count).map(|i| 0.5 - i as f64).collect();
             let mut g = CompactGram::<3>::new();
             for (u, r) in rows.iter().zip(&residuals) {
-                g.push(u, *r);
+                g.push(u, &[], *r);
             }
             let g = g.finish();
             for a in 0..3 {
@@ -512,7 +350,7 @@ mod tests {
     #[test]
     fn partitioned_equals_plain() {
         let mut plain = CompactGram::<7>::new();
-        let mut split = PartitionedGram::<4, 3>::new();
+        let mut split = CompactGram::<4, 3>::new();
         let mut state = 3u64;
         let mut next = || {
             state = state
@@ -523,7 +361,7 @@ mod tests {
         for _ in 0..21 {
             let u: [f64; 7] = std::array::from_fn(|_| next());
             let r = next();
-            plain.push(&u, r);
+            plain.push(&u, &[], r);
             split.push(&[u[0], u[1], u[2], u[3]], &[u[4], u[5], u[6]], r);
         }
         let (a, b) = (plain.finish().clone(), split.finish().clone());

@@ -70,6 +70,61 @@ impl CostFunction for Polynomial {
     }
 }
 
+/// The reference covariance of the free parameters at `x`: `sigma^2 (J^T J)^-1` from a
+/// central-difference Jacobian of all residuals (independent of the solver), with the free
+/// parameters' indices. Finite differences (h = 1e-7, smooth O(1) residuals) limit the Jacobian
+/// to ~1e-8 relative, so entries are good to ~1e-6 of their natural scale `sqrt(C_aa C_bb)`.
+fn dense_reference_covariance<C: CostFunction>(
+    cost: &C,
+    problem: &lm_solver::Problem,
+    x: &[f64],
+) -> (DMatrix<f64>, Vec<usize>, f64) {
+    let m = problem.num_residuals();
+    let jac = central_difference(
+        |v, out| stacked_residuals(cost, problem, v, out),
+        x,
+        m,
+        1e-7,
+    );
+    let free: Vec<usize> = (0..problem.num_parameters())
+        .filter(|&i| !problem.is_fixed(i))
+        .collect();
+    let j = DMatrix::from_fn(m, free.len(), |i, k| jac[i + free[k] * m]);
+    let mut r = vec![0.0; m];
+    stacked_residuals(cost, problem, x, &mut r);
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / (m - free.len()) as f64;
+    let dense = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
+    (dense, free, sigma2)
+}
+
+/// Checks a covariance block against the reference: entries to 1e-5 of `sqrt(C_aa C_bb)`, fixed
+/// components exactly zero.
+fn assert_block_matches(
+    c: &DMatrix<f64>,
+    offset: usize,
+    dense: &DMatrix<f64>,
+    free: &[usize],
+    what: &str,
+) {
+    let position = |i: usize| free.iter().position(|&f| f == i);
+    for a in 0..c.nrows() {
+        for b in 0..c.ncols() {
+            match (position(offset + a), position(offset + b)) {
+                (Some(pa), Some(pb)) => {
+                    let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
+                    assert!(
+                        (c[(a, b)] - dense[(pa, pb)]).abs() <= 1e-5 * scale,
+                        "{what} ({a},{b}): {} vs {}",
+                        c[(a, b)],
+                        dense[(pa, pb)]
+                    );
+                }
+                _ => assert_eq!(c[(a, b)], 0.0),
+            }
+        }
+    }
+}
+
 #[test]
 fn polynomial_fit_matches_the_svd_solution_and_its_covariance() {
     let mut rng = Rng::new(3);
@@ -376,46 +431,17 @@ fn noisy_bearing_adjustment_covariance_matches_the_dense_inverse() {
     let cov = solver.covariance(&ba, &x).unwrap();
 
     // Independent check: finite-difference Jacobian of all residuals, free columns only.
-    let m = problem.num_residuals();
-    let jac = central_difference(
-        |v, out| stacked_residuals(&ba, &problem, v, out),
-        &x,
-        m,
-        1e-7,
-    );
-    let free: Vec<usize> = (0..problem.num_parameters())
-        .filter(|&i| !problem.is_fixed(i))
-        .collect();
-    let j = DMatrix::from_fn(m, free.len(), |i, k| jac[i + free[k] * m]);
-    let mut r = vec![0.0; m];
-    stacked_residuals(&ba, &problem, &x, &mut r);
-    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / (m - free.len()) as f64;
+    let (dense, free, sigma2) = dense_reference_covariance(&ba, &problem, &x);
     assert!((cov.residual_variance - sigma2).abs() < 1e-9 * sigma2);
-    let dense = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
-    // Map back to blocks and compare. Finite differences (h = 1e-7, smooth O(1) residuals) limit
-    // the Jacobian to ~1e-8 relative, so entries agree to 1e-5 of their natural scale
-    // sqrt(C_aa C_bb); fixed components must be exactly zero.
-    let position = |i: usize| free.iter().position(|&f| f == i);
     for &block in &built.blocks {
         let Some(c) = cov.block(block) else { continue };
-        let o = problem.offset(block);
-        for a in 0..c.nrows() {
-            for b in 0..c.ncols() {
-                match (position(o + a), position(o + b)) {
-                    (Some(pa), Some(pb)) => {
-                        let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
-                        let diff = (c[(a, b)] - dense[(pa, pb)]).abs();
-                        assert!(
-                            diff <= 1e-5 * scale,
-                            "{block:?} ({a},{b}): {} vs {}",
-                            c[(a, b)],
-                            dense[(pa, pb)]
-                        );
-                    }
-                    _ => assert_eq!(c[(a, b)], 0.0),
-                }
-            }
-        }
+        assert_block_matches(
+            &c,
+            problem.offset(block),
+            &dense,
+            &free,
+            &format!("{block:?}"),
+        );
     }
     // The standard deviations of a landmark are positive, those of the fixed gauge zero.
     assert!(
@@ -976,41 +1002,17 @@ fn selected_covariance_of_a_large_sparse_problem_matches_the_dense_inverse() {
     assert!(cameras_only.block(built.blocks[57]).is_some());
     let cov = solver.covariance_of(&ba, &x, &wanted).unwrap();
 
-    let m = problem.num_residuals();
-    let jac = central_difference(
-        |v, out| stacked_residuals(&ba, &problem, v, out),
-        &x,
-        m,
-        1e-7,
-    );
-    let free: Vec<usize> = (0..problem.num_parameters())
-        .filter(|&i| !problem.is_fixed(i))
-        .collect();
-    let j = DMatrix::from_fn(m, free.len(), |i, k| jac[i + free[k] * m]);
-    let mut r = vec![0.0; m];
-    stacked_residuals(&ba, &problem, &x, &mut r);
-    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / (m - free.len()) as f64;
-    let dense = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
+    let (dense, free, _) = dense_reference_covariance(&ba, &problem, &x);
     let position = |i: usize| free.iter().position(|&f| f == i);
     for &block in &wanted {
         let c = cov.block(block).unwrap();
-        let o = problem.offset(block);
-        for a in 0..c.nrows() {
-            for b in 0..c.ncols() {
-                match (position(o + a), position(o + b)) {
-                    (Some(pa), Some(pb)) => {
-                        let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
-                        assert!(
-                            (c[(a, b)] - dense[(pa, pb)]).abs() <= 1e-5 * scale,
-                            "{block:?} ({a},{b}): {} vs {}",
-                            c[(a, b)],
-                            dense[(pa, pb)]
-                        );
-                    }
-                    _ => assert_eq!(c[(a, b)], 0.0),
-                }
-            }
-        }
+        assert_block_matches(
+            &c,
+            problem.offset(block),
+            &dense,
+            &free,
+            &format!("{block:?}"),
+        );
     }
     // Cross-covariance of two requested cameras.
     let cross = cov.cross(built.blocks[57], built.blocks[199]).unwrap();
