@@ -44,10 +44,10 @@ pub struct CameraArgs {
     #[arg(long)]
     pub skip_bad_views: bool,
     /// Maximum Levenberg-Marquardt step attempts.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 500)]
     pub max_iterations: usize,
     /// Damping policy of Levenberg-Marquardt.
-    #[arg(long, value_enum, default_value_t = Damping::Additive)]
+    #[arg(long, value_enum, default_value_t = Damping::Hybrid)]
     pub damping: Damping,
     /// Threads (0 = all cores). The result does not depend on it.
     #[arg(long, default_value_t = 0)]
@@ -78,6 +78,8 @@ pub enum Damping {
     Additive,
     /// lambda diag(J^T J) with Nielsen's update (Ceres-like).
     Marquardt,
+    /// Additive for 20 step attempts, then Marquardt (the default).
+    Hybrid,
 }
 
 impl CameraArgs {
@@ -127,6 +129,7 @@ impl CameraArgs {
         options.solver.num_threads = self.threads;
         options.solver.damping = match self.damping {
             Damping::Additive => DampingPolicy::additive(),
+            Damping::Hybrid => DampingPolicy::hybrid(),
             Damping::Marquardt => DampingPolicy::marquardt(),
         };
         Ok(options)

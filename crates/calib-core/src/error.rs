@@ -108,10 +108,11 @@ pub enum CalibrationError {
     },
     /// Every view is (nearly) fronto-parallel: the focal length cannot be observed.
     #[error(
-        "all views are nearly fronto-parallel (largest tilt measure {tilt_measure:.2e}): the focal length is not observable; tilt the board in some views"
+        "every view shows the board parallel to the image plane (the largest depth variation across a board is {tilt_measure:.1e} of its distance): the focal length is not observable; tilt the board in some views"
     )]
     FrontoParallel {
-        /// The largest per-view tilt measure (about half the squared tilt angle, radians^2).
+        /// The largest perspective measure over the views: the relative depth variation across
+        /// the board (`init::perspective_measure`), about `tan(tilt) x extent / distance`.
         tilt_measure: f64,
     },
     /// The closed-form initialization failed for another reason.

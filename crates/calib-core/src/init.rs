@@ -4,8 +4,10 @@
 
 use crate::data::ImageSize;
 use crate::error::CalibrationError;
-use camera_model::{Intrinsics, Pose, nearest_rotation};
-use nalgebra::{Matrix3, Vector3};
+use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
+use crate::solve::SolveOptions;
+use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose, nearest_rotation};
+use nalgebra::{Matrix3, Point2, Point3, Vector2, Vector3};
 
 /// How the common focal length is solved from the stacked orthogonality constraints `a x = b`
 /// (`x = 1 / alpha^2`).
@@ -20,9 +22,18 @@ pub enum FocalInit {
 }
 
 /// Below this tilt measure in every view (about half the squared tilt angle in radians, so
-/// ~0.8 degrees) the focal length is not observable: the constraints vanish for boards parallel
-/// to the image plane.
+/// ~0.8 degrees) the closed form's constraints are too weak to use; the start then comes from
+/// the focal search.
 pub const MIN_TILT_MEASURE: f64 = 1e-4;
+
+/// Below this perspective measure in every view ([`perspective_measure`]: the relative depth
+/// variation across the board, `1e-4` is a 0.01 degree tilt of a board spanning half its
+/// distance) the boards are parallel to the image plane to rounding and the focal length is not
+/// observable at all: the calibration is refused. Everything above is attempted; whether the data
+/// then determine the focal length is for the covariance to say (an error if it is singular, a
+/// warning if the focal length's uncertainty is large). The convergence sweep
+/// (`calib-single/tests/convergence.rs`) draws the largest tilt per problem down to 5 degrees.
+pub const MIN_PERSPECTIVE: f64 = 1e-4;
 
 /// Initial intrinsics from the views' homographies (board plane to pixels, any scale): the
 /// principal point at the image centre (OpenCV convention), square pixels, and the focal length
@@ -77,8 +88,14 @@ pub fn initial_intrinsics(
 /// `K^-1 H = lambda [r1 r2 t]`, with `lambda1 = |K^-1 h1|`, `lambda2 = |K^-1 h2|`,
 /// `r1 = K^-1 h1 / lambda1`, `r2 = K^-1 h2 / lambda2`, `r3 = r1 x r2`,
 /// `t = K^-1 h3 / ((lambda1 + lambda2) / 2)`, and `[r1 r2 r3]` replaced by the nearest rotation.
-/// The sign is chosen so that the board origin is in front of the camera (`t_z > 0`).
-pub fn initial_pose(h: &Matrix3<f64>, intrinsics: &Intrinsics) -> Option<Pose> {
+/// `H` and `-H` are the same homography; the sign is chosen so that the observed board points
+/// (`points`, on `Z = 0`) are in front of the camera: their centroid has positive depth. (The
+/// board origin need not be on the board, so its own depth would not do.)
+pub fn initial_pose(
+    h: &Matrix3<f64>,
+    intrinsics: &Intrinsics,
+    points: &[nalgebra::Point3<f64>],
+) -> Option<Pose> {
     let k_inv = intrinsics.matrix().try_inverse()?;
     let m = k_inv * h;
     let (c1, c2, c3): (Vector3<f64>, Vector3<f64>, Vector3<f64>) = (
@@ -94,13 +111,314 @@ pub fn initial_pose(h: &Matrix3<f64>, intrinsics: &Intrinsics) -> Option<Pose> {
     let r2 = c2 / l2;
     let mut t = c3 / ((l1 + l2) / 2.0);
     let mut r = nearest_rotation(&Matrix3::from_columns(&[r1, r2, r1.cross(&r2)]))?;
-    if t.z < 0.0 {
+    let centroid = if points.is_empty() {
+        Vector3::zeros()
+    } else {
+        points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / points.len() as f64
+    };
+    if (r * centroid + t).z < 0.0 {
         // H had the opposite sign: -r1, -r2, -t is the same homography; r3 = r1 x r2 is unchanged.
         r.column_mut(0).neg_mut();
         r.column_mut(1).neg_mut();
         t = -t;
     }
     t.iter().all(|v| v.is_finite()).then_some(Pose::new(r, t))
+}
+
+/// Where the initial intrinsics came from (`initial.method` in results).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum StartMethod {
+    /// Given by the caller (`intrinsic_guess`).
+    Given,
+    /// The closed form from the homographies (the seed's method).
+    ClosedForm(FocalInit),
+    /// The closed form was unusable or not at the minimum of the start's reprojection error: a
+    /// one-dimensional search over the focal length found the start.
+    FocalSearch,
+}
+
+impl std::str::FromStr for StartMethod {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        [
+            StartMethod::Given,
+            StartMethod::ClosedForm(FocalInit::Bouguet),
+            StartMethod::ClosedForm(FocalInit::LeastSquares),
+            StartMethod::FocalSearch,
+        ]
+        .into_iter()
+        .find(|m| m.name() == s)
+        .ok_or_else(|| format!("unknown start method '{s}'"))
+    }
+}
+
+impl StartMethod {
+    /// The name in result files: `given`, `closed-form-bouguet`, `closed-form-least-squares`,
+    /// `focal-search`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StartMethod::Given => "given",
+            StartMethod::ClosedForm(FocalInit::Bouguet) => "closed-form-bouguet",
+            StartMethod::ClosedForm(FocalInit::LeastSquares) => "closed-form-least-squares",
+            StartMethod::FocalSearch => "focal-search",
+        }
+    }
+}
+
+/// A view's board points and their pixels, in the same order.
+pub type ViewPoints<'a> = (&'a [Point3<f64>], &'a [Point2<f64>]);
+
+/// A view reduced to what scoring a focal length needs: its homography and a spread subset of
+/// its points.
+#[derive(Debug, Clone)]
+pub struct ScoringView {
+    /// The homography (board plane to pixels).
+    pub h: Matrix3<f64>,
+    /// Board points (subset).
+    pub object: Vec<Point3<f64>>,
+    /// Their pixels.
+    pub image: Vec<Vector2<f64>>,
+}
+
+/// Most views and points per view used to score focal lengths: a weakly tilted capture
+/// determines the focal length only through all its views together, so the search uses as many
+/// as it can afford (a score is one small calibration, about 1 ms at this size).
+const SCORING_VIEWS: usize = 40;
+const SCORING_POINTS: usize = 100;
+
+/// The relative depth range of a view's points, from its homography alone (independent of the
+/// intrinsics): with `w(X) = h31 X + h32 Y + h33` proportional to the depth of board point `X`,
+/// `(max w - min w) / mean w`. It is about `tan(tilt) x board extent / distance`; zero for a
+/// board parallel to the image plane, where the view says nothing about the focal length.
+pub fn perspective_measure(h: &Matrix3<f64>, points: &[Point3<f64>]) -> f64 {
+    let w: Vec<f64> = points
+        .iter()
+        .map(|p| h[(2, 0)] * p.x + h[(2, 1)] * p.y + h[(2, 2)])
+        .collect();
+    let mean = w.iter().sum::<f64>() / w.len().max(1) as f64;
+    let (lo, hi) = w
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if mean.abs() > 0.0 && hi >= lo {
+        (hi - lo) / mean.abs()
+    } else {
+        0.0
+    }
+}
+
+/// The views that score focal lengths: the [`SCORING_VIEWS`] with the strongest perspective,
+/// each with at most [`SCORING_POINTS`] points spread over the view.
+pub fn scoring_views(homographies: &[Matrix3<f64>], views: &[ViewPoints<'_>]) -> Vec<ScoringView> {
+    let mut order: Vec<(f64, usize)> = homographies
+        .iter()
+        .zip(views)
+        .enumerate()
+        .map(|(i, (h, (object, _)))| (perspective_measure(h, object), i))
+        .collect();
+    order.sort_by(|a, b| b.0.total_cmp(&a.0));
+    order
+        .into_iter()
+        .take(SCORING_VIEWS)
+        .map(|(_, i)| {
+            let (object, image) = views[i];
+            let step = object.len().div_ceil(SCORING_POINTS).max(1);
+            ScoringView {
+                h: homographies[i],
+                object: object.iter().step_by(step).copied().collect(),
+                image: image.iter().step_by(step).map(|p| p.coords).collect(),
+            }
+        })
+        .collect()
+}
+
+/// How the calibration's camera block is held, for scoring focal lengths with the same model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScoringCamera {
+    /// The lens model.
+    pub model: CameraModel,
+    /// Components of `[fx, fy, cx, cy, distortion...]` the calibration holds (besides the focal
+    /// lengths, which the score holds at each candidate).
+    pub fixed: Vec<usize>,
+}
+
+/// The start's reprojection RMS (pixels) at focal length `f`: square pixels, principal point
+/// starting at `(cx, cy)`, every scoring view's pose from its homography, then everything but
+/// the focal lengths optimized as the calibration would (principal point, distortion, poses):
+/// the profile of the calibration's cost along the focal length, on the scoring subset.
+/// Infinite if some view has no pose or the solve fails.
+pub fn focal_score(f: f64, cx: f64, cy: f64, camera: &ScoringCamera, views: &[ScoringView]) -> f64 {
+    let model = camera.model;
+    let k = Intrinsics::new(f, f, cx, cy);
+    let mut frames = Vec::with_capacity(views.len());
+    for v in views {
+        match initial_pose(&v.h, &k, &v.object) {
+            Some(p) => frames.push(p),
+            None => return f64::INFINITY,
+        }
+    }
+    let held = camera;
+    let mut camera = CameraSpec::new(
+        "scoring",
+        ImageSize::new(1, 1),
+        AnyCamera::undistorted(model, k),
+    );
+    camera.fixed = [0, 1].iter().chain(&held.fixed).copied().collect();
+    camera.fixed.sort_unstable();
+    camera.fixed.dedup();
+    let problem = JointProblem {
+        cameras: vec![camera],
+        reference: 0,
+        rig: vec![Pose::identity()],
+        rig_fixed: vec![true],
+        frame_names: (0..views.len())
+            .map(|i| format!("scoring view {i}"))
+            .collect(),
+        frames,
+        observations: views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| ObservationSpec::new(0, i, "scoring", v.object.clone(), v.image.clone()))
+            .collect(),
+    };
+    let mut options = SolveOptions {
+        compute_uncertainty: false,
+        ..SolveOptions::default()
+    };
+    options.solver.max_iterations = 50;
+    options.solver.damping = lm_solver::DampingPolicy::marquardt();
+    options.solver.num_threads = 1;
+    options.solver.function_tolerance = 1e-6;
+    match crate::solve::solve(&problem, &options) {
+        Ok(solution) => {
+            let (sum, n) = solution
+                .residuals
+                .iter()
+                .flatten()
+                .fold((0.0, 0usize), |(s, n), e| (s + e.norm_squared(), n + 1));
+            (sum / n.max(1) as f64).sqrt()
+        }
+        Err(_) => f64::INFINITY,
+    }
+}
+
+/// The focal length (pixels) that minimizes [`focal_score`]: a log-spaced grid from 0.05 to 20
+/// times the image's half-diagonal (6 points per decade), then a golden-section search between
+/// the best grid point's neighbours. `None` if no focal length gives a finite score.
+pub fn focal_search(
+    image_size: ImageSize,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+) -> Option<f64> {
+    let (cx, cy) = image_size.centre();
+    let d = image_size.half_diagonal().max(1.0);
+    let (lo, hi) = ((0.05 * d).ln(), (20.0 * d).ln());
+    let steps = ((hi - lo) / std::f64::consts::LN_10 * 6.0).ceil() as usize;
+    let score = |log_f: f64| focal_score(log_f.exp(), cx, cy, camera, views);
+    let grid: Vec<(f64, f64)> = (0..=steps)
+        .map(|i| {
+            let x = lo + (hi - lo) * i as f64 / steps as f64;
+            (x, score(x))
+        })
+        .collect();
+    let (best, _) = grid
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, s))| s.is_finite())
+        .min_by(|a, b| a.1.1.total_cmp(&b.1.1))?;
+    let (mut a, mut b) = (
+        grid[best.saturating_sub(1)].0,
+        grid[(best + 1).min(steps)].0,
+    );
+    // Golden-section search on log f.
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut e) = (b - ratio * (b - a), a + ratio * (b - a));
+    let (mut sc, mut se) = (score(c), score(e));
+    for _ in 0..12 {
+        if sc < se {
+            b = e;
+            e = c;
+            se = sc;
+            c = b - ratio * (b - a);
+            sc = score(c);
+        } else {
+            a = c;
+            c = e;
+            sc = se;
+            e = a + ratio * (b - a);
+            se = score(e);
+        }
+    }
+    let x = if sc < se { c } else { e };
+    Some(x.exp())
+}
+
+/// Relative disagreement of the two closed forms above which neither is trusted as the start.
+pub const CLOSED_FORM_AGREEMENT: f64 = 0.15;
+
+/// The start of the intrinsics (square pixels, principal point at the image centre).
+///
+/// The closed form `method` is kept when both closed forms (Bouguet's and least squares) are
+/// valid, agree within [`CLOSED_FORM_AGREEMENT`] and give a focal length within 0.05 to 20 image
+/// half-diagonals: well-tilted boards make both accurate. Otherwise (a `1/alpha^2` that is not
+/// positive, as nearly frontal boards with noise give, or two estimates that disagree, which
+/// shows that noise dominates the constraints) the focal length comes from [`focal_search`], the
+/// minimum of the calibration cost's profile along the focal length, or from a closed form if it
+/// scores lower.
+pub fn start_intrinsics(
+    homographies: &[Matrix3<f64>],
+    views: &[ViewPoints<'_>],
+    image_size: ImageSize,
+    camera: &ScoringCamera,
+    method: FocalInit,
+) -> Result<(Intrinsics, StartMethod), CalibrationError> {
+    let (cx, cy) = image_size.centre();
+    let d = image_size.half_diagonal().max(1.0);
+    let perspective = homographies
+        .iter()
+        .zip(views)
+        .map(|(h, (object, _))| perspective_measure(h, object))
+        .fold(0.0, f64::max);
+    if perspective.is_nan() || perspective < MIN_PERSPECTIVE {
+        return Err(CalibrationError::FrontoParallel {
+            tilt_measure: perspective,
+        });
+    }
+    let other = match method {
+        FocalInit::Bouguet => FocalInit::LeastSquares,
+        FocalInit::LeastSquares => FocalInit::Bouguet,
+    };
+    let preferred = initial_intrinsics(homographies, image_size, method);
+    let second = initial_intrinsics(homographies, image_size, other);
+    if let (Ok(a), Ok(b)) = (&preferred, &second)
+        && (a.fx / b.fx - 1.0).abs() <= CLOSED_FORM_AGREEMENT
+        && (0.05 * d..=20.0 * d).contains(&a.fx)
+    {
+        return Ok((*a, StartMethod::ClosedForm(method)));
+    }
+    let scoring = scoring_views(homographies, views);
+    let mut candidates: Vec<(f64, StartMethod)> = Vec::new();
+    if let Some(f) = focal_search(image_size, camera, &scoring) {
+        candidates.push((f, StartMethod::FocalSearch));
+    }
+    for (closed, m) in [(preferred, method), (second, other)] {
+        if let Ok(k) = closed {
+            candidates.push((k.fx, StartMethod::ClosedForm(m)));
+        }
+    }
+    let best = candidates
+        .into_iter()
+        .map(|(f, m)| (focal_score(f, cx, cy, camera, &scoring), f, m))
+        .filter(|(s, _, _)| s.is_finite())
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    match best {
+        Some((_, f, m)) => Ok((Intrinsics::new(f, f, cx, cy), m)),
+        None => Err(CalibrationError::FrontoParallel {
+            tilt_measure: perspective,
+        }),
+    }
 }
 
 #[cfg(test)]
@@ -138,7 +456,7 @@ mod tests {
             assert_eq!((guess.cx, guess.cy), (319.5, 239.5));
         }
         for (p, h) in poses.iter().zip(&hs) {
-            let estimate = initial_pose(h, &k).unwrap();
+            let estimate = initial_pose(h, &k, &[]).unwrap();
             assert!((estimate.rotation - p.rotation).norm() < 1e-12);
             assert!((estimate.translation - p.translation).norm() < 1e-12);
         }

@@ -94,12 +94,14 @@ impl CalibrationOptions {
     }
 }
 
-/// The solver settings calibration uses by default: the library defaults, which converge to the
-/// rounding level of the cost (relative change 1e-12), with at most 100 step attempts.
+/// The solver settings calibration uses by default: the library's tolerances, which converge to
+/// the rounding level of the cost (relative change 1e-12); the hybrid damping policy (the text's
+/// additive policy, then Marquardt's after 20 step attempts), which a convergence sweep over
+/// weakly tilted captures chose (`docs/benchmarks-solver.md`); and at most 500 step attempts, a
+/// safety net that ordinary problems never approach (they converge in 5 to 20).
 pub fn default_solver_options() -> SolverOptions {
-    {
-        let mut o = SolverOptions::default();
-        o.max_iterations = 100;
-        o
-    }
+    let mut o = SolverOptions::default();
+    o.max_iterations = 500;
+    o.damping = lm_solver::DampingPolicy::hybrid();
+    o
 }

@@ -21,7 +21,7 @@
 
 use crate::data::ImageSize;
 use camera_model::{AnyCamera, CameraModel, Pose};
-use nalgebra::{Point3, Vector2};
+use nalgebra::{Point3, Vector2, Vector3};
 
 /// One camera of a calibration problem.
 #[derive(Debug, Clone, PartialEq)]
@@ -169,7 +169,83 @@ pub enum ProblemError {
     },
 }
 
+/// A similarity of the board coordinates, `X' = (X - centre) / scale`, that centres them and
+/// gives them unit size. Boards in micrometres or 1e-8 units, or with their origin far outside
+/// the board, then give the solver the same well-scaled problem as boards in millimetres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoardNormalization {
+    /// Centroid of all board points, board units.
+    pub centre: Vector3<f64>,
+    /// RMS distance of the board points from the centroid, board units.
+    pub scale: f64,
+}
+
+impl BoardNormalization {
+    /// A frame pose (board to reference camera) of the original problem in the normalized one:
+    /// `t' = (R c + t) / s`.
+    pub fn normalize_frame(&self, pose: &Pose) -> Pose {
+        Pose::new(
+            pose.rotation,
+            (pose.rotation * self.centre + pose.translation) / self.scale,
+        )
+    }
+
+    /// The inverse of [`BoardNormalization::normalize_frame`]: `t = s t' - R c`.
+    pub fn denormalize_frame(&self, pose: &Pose) -> Pose {
+        Pose::new(
+            pose.rotation,
+            pose.translation * self.scale - pose.rotation * self.centre,
+        )
+    }
+}
+
 impl JointProblem {
+    /// The normalization of the board coordinates, if the problem needs one: when the board
+    /// points' RMS size is outside `[0.01, 1e4]` board units or their centroid lies more than
+    /// three sizes from the board origin. Ordinary boards (millimetres or metres, origin on the
+    /// board) are solved as given, so their numbers do not change at all.
+    pub fn board_normalization(&self) -> Option<BoardNormalization> {
+        let n: usize = self.observations.iter().map(|o| o.object.len()).sum();
+        if n == 0 {
+            return None;
+        }
+        let centre = self
+            .observations
+            .iter()
+            .flat_map(|o| o.object.iter())
+            .fold(Vector3::zeros(), |a, p| a + p.coords)
+            / n as f64;
+        let scale = (self
+            .observations
+            .iter()
+            .flat_map(|o| o.object.iter())
+            .map(|p| (p.coords - centre).norm_squared())
+            .sum::<f64>()
+            / n as f64)
+            .sqrt();
+        let needed = !(0.01..=1e4).contains(&scale) || centre.norm() > 3.0 * scale;
+        (needed && scale.is_finite() && scale > 0.0).then_some(BoardNormalization { centre, scale })
+    }
+
+    /// The problem in normalized board coordinates: board points `(X - c) / s`, frame
+    /// translations `(R c + t) / s`, rig translations `t / s` (a change of units and origin that
+    /// leaves every projection unchanged).
+    pub fn normalized(&self, n: &BoardNormalization) -> JointProblem {
+        let mut out = self.clone();
+        for o in &mut out.observations {
+            for p in &mut o.object {
+                *p = Point3::from((p.coords - n.centre) / n.scale);
+            }
+        }
+        for f in &mut out.frames {
+            *f = n.normalize_frame(f);
+        }
+        for r in &mut out.rig {
+            r.translation /= n.scale;
+        }
+        out
+    }
+
     /// Checks indices, lengths and camera settings.
     pub fn check(&self) -> Result<(), ProblemError> {
         let n_cam = self.cameras.len();

@@ -6,7 +6,7 @@
 
 use crate::data::{ImageSize, View};
 use crate::error::{CalibrationError, PointKind};
-use crate::init::{initial_intrinsics, initial_pose};
+use crate::init::{ScoringCamera, StartMethod, initial_pose, start_intrinsics};
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
@@ -89,6 +89,8 @@ pub struct PreparedCamera {
     pub homographies: Vec<Matrix3<f64>>,
     /// Closed-form (or given) intrinsics with the initial distortion.
     pub initial: AnyCamera,
+    /// Where the initial intrinsics came from.
+    pub start_method: StartMethod,
     /// Closed-form board-to-camera pose of each used view.
     pub initial_poses: Vec<Pose>,
     /// Fixed components of the camera block `[fx, fy, cx, cy, distortion...]`.
@@ -213,9 +215,25 @@ pub fn prepare_camera(
     }
     let homographies_done = Instant::now();
 
-    let intrinsics = match options.intrinsic_guess {
-        Some(guess) => guess,
-        None => initial_intrinsics(&homographies, image_size, options.focal_init)?,
+    let (intrinsics, start_method) = match options.intrinsic_guess {
+        Some(guess) => (guess, StartMethod::Given),
+        None => {
+            let views: Vec<crate::init::ViewPoints<'_>> = used
+                .iter()
+                .map(|(_, v)| (v.object_points.as_slice(), v.image_points.as_slice()))
+                .collect();
+            let scoring = ScoringCamera {
+                model: options.model,
+                fixed: fixed_camera_components(options, used.len()),
+            };
+            start_intrinsics(
+                &homographies,
+                &views,
+                image_size,
+                &scoring,
+                options.focal_init,
+            )?
+        }
     };
     let mut distortion = options
         .distortion_guess
@@ -230,10 +248,11 @@ pub fn prepare_camera(
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
     let mut initial_poses = Vec::with_capacity(used.len());
     for (&(index, view), h) in used.iter().zip(&homographies) {
-        let pose =
-            initial_pose(h, &intrinsics).ok_or_else(|| CalibrationError::Initialization {
+        let pose = initial_pose(h, &intrinsics, &view.object_points).ok_or_else(|| {
+            CalibrationError::Initialization {
                 reason: format!("view {index}: no pose from its homography"),
-            })?;
+            }
+        })?;
         if let Some(point) = view
             .object_points
             .iter()
@@ -266,6 +285,7 @@ pub fn prepare_camera(
         skipped,
         homographies,
         initial,
+        start_method,
         initial_poses,
         fixed,
         times: (homographies_done - start, homographies_done.elapsed()),

@@ -8,7 +8,7 @@
 
 use crate::cost::{JointCost, residual_layouts};
 use crate::error::CalibrationError;
-use crate::problem::JointProblem;
+use crate::problem::{BoardNormalization, JointProblem};
 use camera_model::{
     AnyCamera, AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization, So3,
 };
@@ -17,7 +17,7 @@ use lm_solver::{
     CovarianceError, Loss, ParameterBlockId, ProblemBuilder, Solver, SolverError, SolverOptions,
     SolverReport,
 };
-use nalgebra::{DMatrix, Vector2, Vector6};
+use nalgebra::{DMatrix, Vector2, Vector3, Vector6};
 use std::sync::Arc;
 
 /// How to solve a [`JointProblem`].
@@ -36,8 +36,7 @@ pub struct SolveOptions {
 
 impl Default for SolveOptions {
     fn default() -> Self {
-        let mut solver = SolverOptions::default();
-        solver.max_iterations = 100;
+        let solver = crate::options::default_solver_options();
         Self {
             rotation: RotationKind::EulerXyz,
             solver,
@@ -97,11 +96,50 @@ pub fn solve(
     problem
         .check()
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    let normalization = problem.board_normalization();
+    let normalized;
+    let target = match &normalization {
+        Some(n) => {
+            normalized = problem.normalized(n);
+            &normalized
+        }
+        None => problem,
+    };
     match options.rotation {
-        RotationKind::EulerXyz => solve_with::<EulerXyz>(problem, options),
-        RotationKind::AxisAngle => solve_with::<AxisAngle>(problem, options),
-        RotationKind::So3 => solve_with::<So3>(problem, options),
+        RotationKind::EulerXyz => solve_with::<EulerXyz>(target, options, normalization),
+        RotationKind::AxisAngle => solve_with::<AxisAngle>(target, options, normalization),
+        RotationKind::So3 => solve_with::<So3>(target, options, normalization),
     }
+}
+
+/// Maps a frame's parameters and their covariance from normalized board coordinates back to the
+/// user's: `t = s t' - R(rho) c`, so `dt/drho_k = -(dR/drho_k) c` and `dt/dt' = s I`; the rotation
+/// parameters are unchanged.
+fn denormalize_frame<R: RotationParameterization>(
+    n: &BoardNormalization,
+    params: [f64; 6],
+    covariance: Option<&DMatrix<f64>>,
+) -> ([f64; 6], [f64; 6]) {
+    let rho = Vector3::new(params[0], params[1], params[2]);
+    let (rotation, derivatives) = R::matrix_and_derivatives(&rho);
+    let t = Vector3::new(params[3], params[4], params[5]) * n.scale - rotation * n.centre;
+    let out = [params[0], params[1], params[2], t.x, t.y, t.z];
+    let std = match covariance {
+        Some(c) => {
+            let mut j = DMatrix::<f64>::identity(6, 6);
+            for k in 0..3 {
+                let column = -(derivatives[k] * n.centre);
+                for i in 0..3 {
+                    j[(3 + i, k)] = column[i];
+                }
+                j[(3 + k, 3 + k)] = n.scale;
+            }
+            let mapped = &j * c * j.transpose();
+            std::array::from_fn(|i| mapped[(i, i)].max(0.0).sqrt())
+        }
+        None => [0.0; 6],
+    };
+    (out, std)
 }
 
 /// The reprojection errors `projected - measured` (pixels) of every point of every observation
@@ -319,6 +357,7 @@ fn solver_error(problem: &JointProblem, error: SolverError) -> CalibrationError 
 fn solve_with<R: RotationParameterization>(
     problem: &JointProblem,
     options: &SolveOptions,
+    normalization: Option<BoardNormalization>,
 ) -> Result<JointSolution, CalibrationError> {
     let (lm, blocks) = build(problem, options)?;
     let used = problem.num_used_points();
@@ -398,10 +437,17 @@ fn solve_with<R: RotationParameterization>(
     for b in &blocks.rigs {
         match b {
             Some(b) => {
-                let p = six(lm.block(&x, *b).to_vec());
+                let mut p = six(lm.block(&x, *b).to_vec());
+                let mut std = six(std_of(*b));
+                if let Some(n) = &normalization {
+                    for i in 3..6 {
+                        p[i] *= n.scale;
+                        std[i] *= n.scale;
+                    }
+                }
                 rig.push(Pose::from_params::<R>(&Vector6::from(p)));
                 rig_params.push(p);
-                rig_std.push(six(std_of(*b)));
+                rig_std.push(std);
             }
             None => {
                 rig.push(Pose::identity());
@@ -414,10 +460,18 @@ fn solve_with<R: RotationParameterization>(
     let mut frame_params = Vec::new();
     let mut frame_std = Vec::new();
     for &b in &blocks.frames {
-        let p = six(lm.block(&x, b).to_vec());
+        let mut p = six(lm.block(&x, b).to_vec());
+        let mut std = six(std_of(b));
+        if let Some(n) = &normalization {
+            let covariance = covariance
+                .as_ref()
+                .and_then(|c| c.block(b))
+                .map(|c| c * dof_scale);
+            (p, std) = denormalize_frame::<R>(n, p, covariance.as_ref());
+        }
         frames.push(Pose::from_params::<R>(&Vector6::from(p)));
         frame_params.push(p);
-        frame_std.push(six(std_of(b)));
+        frame_std.push(std);
     }
     let mut residuals = Vec::with_capacity(problem.observations.len());
     let mut weighted = 0.0;

@@ -213,6 +213,51 @@ pub fn true_camera(config: &SyntheticConfig) -> Result<AnyCamera, SyntheticError
         .map_err(|e| SyntheticError::Invalid(e.to_string()))
 }
 
+/// A problem of the population users produce, for convergence sweeps: 3 to 40 views, the largest
+/// board tilt drawn per problem between 5 and 60 degrees (each view's tilt uniform up to it, so
+/// many views are nearly frontal), noise 0.05 to 1 px, a 7x5, 9x6 or 12x9 board, focal lengths
+/// 400 to 1500 px with `fy/fx` within 2%, the principal point up to 15 px off the image centre,
+/// barrel distortion around `k1 = -0.2`, a 640x480 or 1280x720 image.
+pub fn population(seed: u64) -> SyntheticConfig {
+    let mut rng = Rng::new(0x5EED_0000 + seed);
+    let views = 3 + (rng.uniform() * 38.0) as usize;
+    let max_tilt_deg = rng.range(5.0, 60.0);
+    let noise_px = rng.range(0.05, 1.0);
+    let (board_cols, board_rows) = [(7, 5), (9, 6), (12, 9)][(rng.uniform() * 3.0) as usize % 3];
+    let image_size = if rng.uniform() < 0.5 {
+        ImageSize::new(640, 480)
+    } else {
+        ImageSize::new(1280, 720)
+    };
+    let scale = image_size.width as f64 / 640.0;
+    let f = rng.range(400.0, 1500.0) * scale;
+    let (cx, cy) = image_size.centre();
+    let intrinsics = Intrinsics::new(
+        f,
+        f * rng.range(0.98, 1.02),
+        cx + rng.range(-15.0, 15.0),
+        cy + rng.range(-15.0, 15.0),
+    );
+    SyntheticConfig {
+        image_size,
+        model: CameraModel::BrownConrady4,
+        intrinsics,
+        distortion: vec![
+            rng.range(-0.25, -0.15),
+            rng.range(-0.05, 0.1),
+            rng.range(-0.002, 0.002),
+            rng.range(-0.002, 0.002),
+        ],
+        board_cols,
+        board_rows,
+        square: rng.range(10.0, 40.0),
+        views,
+        noise_px,
+        max_tilt_deg,
+        seed: 7_000_000 + seed,
+    }
+}
+
 /// The board of `config` (points, row-major), its width and its centre, board units.
 pub fn board_geometry(config: &SyntheticConfig) -> (Vec<Point3<f64>>, f64, Vector3<f64>) {
     let board = board_points(config.board_cols, config.board_rows, config.square);

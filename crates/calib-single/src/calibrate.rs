@@ -36,6 +36,7 @@ pub fn calibrate(
         prepared.times,
     );
     let (image_size, initial_intrinsics) = (prepared.image_size, prepared.initial.intrinsics);
+    let initial_method = prepared.start_method;
     let problem = prepared.into_problem("camera");
     let mut solve_options = SolveOptions::default();
     solve_options.rotation = options.rotation;
@@ -88,6 +89,7 @@ pub fn calibrate(
         residual_variance: solution.residual_variance,
         num_points,
         initial_intrinsics,
+        initial_method,
         // The cost is half the sum of squared residuals.
         initial_rms: (2.0 * solution.report.initial_cost / np).sqrt(),
         solver: solution.report,

@@ -3,6 +3,7 @@
 //! [`Calibration::from_json`] reads it back.
 
 use calib_core::ImageSize;
+use calib_core::init::StartMethod;
 pub use calib_core::result::{
     CameraEstimate, SkippedView, StageTimes, ViewResult, write_camera_summary,
 };
@@ -46,6 +47,8 @@ pub struct Calibration {
     pub num_points: usize,
     /// The closed-form initial intrinsics (or the given guess).
     pub initial_intrinsics: Intrinsics,
+    /// Where the initial intrinsics came from (`initial.method` in files).
+    pub initial_method: StartMethod,
     /// RMS at the initial guess, pixels.
     pub initial_rms: f64,
     /// The Levenberg-Marquardt report.
@@ -59,6 +62,7 @@ pub struct Calibration {
 
 #[derive(Serialize, Deserialize)]
 struct InitialJson {
+    method: String,
     fx: f64,
     fy: f64,
     cx: f64,
@@ -135,6 +139,7 @@ impl Calibration {
             residual_std_xy: self.residual_std,
             residual_variance: self.residual_variance,
             initial: InitialJson {
+                method: self.initial_method.name().into(),
                 fx: k.fx,
                 fy: k.fy,
                 cx: k.cx,
@@ -177,6 +182,7 @@ impl Calibration {
                 j.initial.cy,
             ),
             initial_rms: j.initial.rms,
+            initial_method: j.initial.method.parse()?,
             solver: j.solver,
             elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: j.stage_seconds,
@@ -210,8 +216,10 @@ impl Calibration {
         );
         let _ = writeln!(
             out,
-            "  RMS reprojection error = {:.5} px (initial guess: {:.3} px)",
-            self.rms, self.initial_rms
+            "  RMS reprojection error = {:.5} px (initial guess, {}: {:.3} px)",
+            self.rms,
+            self.initial_method.name(),
+            self.initial_rms
         );
         let worst: Vec<String> = self
             .worst_views()

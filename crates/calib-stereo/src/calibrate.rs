@@ -6,6 +6,7 @@ use crate::error::{Side, StereoError};
 use crate::observations::{StereoObservations, check_pair};
 use crate::options::StereoOptions;
 use crate::result::{PairResult, SkippedPair, StereoCalibration};
+use calib_core::init::StartMethod;
 use calib_core::result::CameraEstimate;
 use calib_core::rig::initial_rig;
 use calib_core::single::camera_param_names;
@@ -61,6 +62,7 @@ pub fn calibrate_stereo(
         };
         let prepared = prepare_camera(&views, Some(size), &camera_options).map_err(camera_error)?;
         let spec = prepared.camera_spec(&side.to_string());
+        let start_method = prepared.start_method;
         // This stage only provides the start of the joint optimization, which refines every
         // parameter to the full tolerance: stop at a relative cost change of 1e-6 (the last
         // iterations of a full convergence move the parameters by far less than the joint
@@ -73,10 +75,11 @@ pub fn calibrate_stereo(
         solve.compute_uncertainty = false;
         let solution = calib_core::solve(&prepared.into_problem(&side.to_string()), &solve)
             .map_err(camera_error)?;
-        Ok::<_, StereoError>((spec, solution, t.elapsed()))
+        Ok::<_, StereoError>((spec, start_method, solution, t.elapsed()))
     };
-    let (left_prepared, left_single, left_time) = single(Side::Left, &options.left, left_size)?;
-    let (right_prepared, right_single, right_time) =
+    let (left_prepared, left_method, left_single, left_time) =
+        single(Side::Left, &options.left, left_size)?;
+    let (right_prepared, right_method, right_single, right_time) =
         single(Side::Right, &options.right, right_size)?;
 
     let rig0 = match options.rig_guess {
@@ -101,7 +104,7 @@ pub fn calibrate_stereo(
     solve.solver = options.solver.clone();
     let solution = calib_core::solve(&problem, &solve).map_err(|e| joint_error(e, &kept))?;
     let joint_done = Instant::now();
-    let result = assemble(
+    let mut result = assemble(
         observations,
         &kept,
         skipped,
@@ -111,6 +114,7 @@ pub fn calibrate_stereo(
         [left_time, right_time, joint_done - joint_start],
         start,
     )?;
+    result.initial_methods = [left_method, right_method];
     Ok(result)
 }
 
@@ -379,6 +383,7 @@ fn assemble(
         skipped_pairs: skipped,
         residual_variance: solution.residual_variance,
         initial_rig: rig0,
+        initial_methods: [StartMethod::Given; 2],
         initial_rms: (2.0 * solution.report.initial_cost / total_points as f64).sqrt(),
         solver: solution.report,
         elapsed: start.elapsed(),

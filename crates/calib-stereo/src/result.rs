@@ -2,6 +2,7 @@
 //! is a serde type: [`StereoCalibration::to_json`] writes it and [`StereoCalibration::from_json`]
 //! reads it back.
 
+use calib_core::init::StartMethod;
 pub use calib_core::result::CameraEstimate;
 use calib_core::result::{deserialize_versioned, duration_from_seconds, seconds};
 use camera_model::{AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization};
@@ -103,6 +104,8 @@ pub struct StereoCalibration {
     pub residual_variance: f64,
     /// The rig before the joint optimization.
     pub initial_rig: Pose,
+    /// Where each camera's initial intrinsics came from (left, right).
+    pub initial_methods: [StartMethod; 2],
     /// RMS at the start of the joint optimization (single-camera estimates and initial rig).
     pub initial_rms: f64,
     /// The joint Levenberg-Marquardt report.
@@ -137,6 +140,8 @@ struct StageSeconds {
 #[derive(Serialize, Deserialize)]
 struct InitialJson {
     rms: f64,
+    left_method: String,
+    right_method: String,
     #[serde(rename = "R")]
     r: [[f64; 3]; 3],
     #[serde(rename = "T")]
@@ -215,6 +220,8 @@ impl StereoCalibration {
             residual_variance: self.residual_variance,
             initial: InitialJson {
                 rms: self.initial_rms,
+                left_method: self.initial_methods[0].name().into(),
+                right_method: self.initial_methods[1].name().into(),
                 r: rows(&self.initial_rig.rotation),
                 t: [t0.x, t0.y, t0.z],
             },
@@ -250,6 +257,10 @@ impl StereoCalibration {
             residual_variance: j.residual_variance,
             initial_rig: Pose::new(from_rows(&j.initial.r), j.initial.t.into()),
             initial_rms: j.initial.rms,
+            initial_methods: [
+                j.initial.left_method.parse()?,
+                j.initial.right_method.parse()?,
+            ],
             solver: j.solver,
             elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: [

