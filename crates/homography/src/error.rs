@@ -78,6 +78,18 @@ pub enum HomographyError {
         rank: usize,
     },
 
+    /// Fewer than half the correspondences (or fewer than four) agree with any one homography:
+    /// the points are shuffled, mismatched or mostly wrong.
+    #[error(
+        "only {inliers} of {points} points fit one homography: the image points do not match the board points (shuffled or mismatched correspondences?)"
+    )]
+    NoConsensus {
+        /// The largest number of points that agree.
+        inliers: usize,
+        /// Number of correspondences.
+        points: usize,
+    },
+
     /// A homography was found or given, but it cannot be used: its `H33` entry is
     /// (numerically) zero, i.e. the plane origin maps to infinity and the `H33 = 1`
     /// scaling is impossible, or its entries are not finite, or a linear algebra routine

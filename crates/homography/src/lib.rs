@@ -16,7 +16,9 @@
 //! * [`refine`] (`refine.rs`): Gauss-Newton on the eight free entries of `H`, minimizing the
 //!   pixel reprojection error with the analytic Jacobian of [`project_with_jacobian`]
 //!   (`projection.rs`);
-//! * [`estimate`]: both stages, the normal entry point.
+//! * [`estimate`]: both stages, the normal entry point;
+//! * [`estimate_robust`] (`robust.rs`): [`estimate`], or least median of squares when some
+//!   correspondences are wrong (stray corners), with the inliers.
 //!
 //! Degenerate input (too few, non-finite, coincident or collinear points, configurations
 //! without a unique solution, a plane origin mapped to infinity) is reported as a
@@ -56,6 +58,7 @@ mod error;
 mod normalization;
 mod projection;
 mod refine;
+mod robust;
 mod validate;
 
 pub use dlt::{RANK_THRESHOLD, dlt};
@@ -63,4 +66,5 @@ pub use error::{HomographyError, PointSet};
 pub use normalization::{COINCIDENCE_THRESHOLD, COLLINEARITY_THRESHOLD, normalization_matrix};
 pub use projection::{Matrix2x8, project_with_jacobian, reprojection_rms};
 pub use refine::{HomographyEstimate, RefineOptions, RefineTermination, estimate, refine};
+pub use robust::{RobustEstimate, RobustOptions, estimate_robust};
 pub use validate::H33_THRESHOLD;
