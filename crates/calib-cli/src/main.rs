@@ -9,6 +9,7 @@ mod stereo;
 mod synth;
 
 use clap::{Parser, Subcommand};
+use std::io::Write as _;
 use std::process::ExitCode;
 
 /// Camera calibration from detected planar-target corners.
@@ -49,21 +50,32 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(message)) => {
-            eprintln!("calib: {message}");
+            let _ = writeln!(std::io::stderr(), "calib: {message}");
             ExitCode::from(1)
         }
     }
 }
 
-/// Writes JSON to a file, or to stdout for "-".
+/// Writes JSON to a file (atomically: a failure leaves any previous file intact), or to stdout
+/// for "-".
 pub fn write_json(path: &str, value: &serde_json::Value) -> Result<(), Failure> {
     let text = serde_json::to_string_pretty(value)? + "\n";
     if path == "-" {
-        print!("{text}");
-        Ok(())
+        print_stdout(&text)
     } else {
-        std::fs::write(path, text).map_err(|e| Failure(format!("cannot write {path}: {e}")))
+        calib_core::write_atomically(std::path::Path::new(path), text.as_bytes())
+            .map_err(|e| Failure(format!("cannot write {path}: {e}")))
     }
+}
+
+/// Writes to stdout, reporting a closed pipe or a full disk as a failure instead of panicking
+/// like `print!`.
+pub fn print_stdout(text: &str) -> Result<(), Failure> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .map_err(|e| Failure(format!("cannot write to standard output: {e}")))
 }
 
 /// Parses `a,b,c` into numbers.

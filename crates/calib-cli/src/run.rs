@@ -1,10 +1,11 @@
 //! What `calib single` and `calib stereo` share once the options are built: repeated runs for
 //! warm timings, failure and warning reporting, the summary and the JSON output.
 
-use crate::{Failure, write_json};
+use crate::{Failure, print_stdout, write_json};
 use clap::Args;
 use lm_solver::Termination;
 use serde_json::Value;
+use std::io::Write as _;
 use std::time::Duration;
 
 /// Output arguments of the calibration commands.
@@ -17,9 +18,53 @@ pub struct OutputArgs {
     #[arg(short, long)]
     pub quiet: bool,
     /// Run the calibration this many times in one process and report the median time in
-    /// `elapsed_seconds` (all times in `elapsed_seconds_all`): a warm timing, like a benchmark's.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub repeat: usize,
+    /// `elapsed_seconds` (all times in `elapsed_seconds_all`): a warm timing, like a benchmark's
+    /// (1 to 10000).
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub repeat: u32,
+    /// Refuse input files larger than this many megabytes.
+    #[arg(long, default_value_t = 2048, value_name = "MB")]
+    pub max_input_mb: u64,
+}
+
+impl OutputArgs {
+    /// The input size limit in bytes.
+    pub fn max_input(&self) -> u64 {
+        self.max_input_mb.saturating_mul(1 << 20)
+    }
+
+    /// Refuses an output path that names one of the inputs: the result would replace the data.
+    pub fn check_against(&self, inputs: &[&str]) -> Result<(), Failure> {
+        if let Some(out) = &self.output {
+            check_not_input(out, inputs)?;
+        }
+        Ok(())
+    }
+}
+
+/// Fails if `output` is the same file as one of `inputs` (after resolving links and `..`).
+pub fn check_not_input(output: &str, inputs: &[&str]) -> Result<(), Failure> {
+    if output == "-" {
+        return Ok(());
+    }
+    let resolve = |p: &str| {
+        let path = std::path::Path::new(p);
+        std::fs::canonicalize(path).ok().or_else(|| {
+            // A new file: resolve its directory.
+            let parent = path.parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = std::fs::canonicalize(parent.unwrap_or(std::path::Path::new("."))).ok()?;
+            Some(dir.join(path.file_name()?))
+        })
+    };
+    let out = resolve(output);
+    for input in inputs {
+        if out.is_some() && out == resolve(input) {
+            return Err(Failure(format!(
+                "-o {output}: that is the input file {input}; choose another output path"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The parts of a calibration result the command line reports.
@@ -28,6 +73,8 @@ pub trait Report {
     fn elapsed_mut(&mut self) -> &mut Duration;
     /// How the optimization ended.
     fn termination(&self) -> &Termination;
+    /// The result's warnings.
+    fn warnings(&self) -> &[calib_core::Warning];
     /// The human summary.
     fn summary(&self) -> String;
     /// The JSON form.
@@ -40,6 +87,9 @@ impl Report for calib_single::Calibration {
     }
     fn termination(&self) -> &Termination {
         &self.solver.termination
+    }
+    fn warnings(&self) -> &[calib_core::Warning] {
+        &self.warnings
     }
     fn summary(&self) -> String {
         calib_single::Calibration::summary(self)
@@ -56,6 +106,9 @@ impl Report for calib_stereo::StereoCalibration {
     fn termination(&self) -> &Termination {
         &self.solver.termination
     }
+    fn warnings(&self) -> &[calib_core::Warning] {
+        &self.warnings
+    }
     fn summary(&self) -> String {
         calib_stereo::StereoCalibration::summary(self)
     }
@@ -64,16 +117,10 @@ impl Report for calib_stereo::StereoCalibration {
     }
 }
 
-/// A warning line for a solve that stopped without meeting a convergence criterion.
-pub fn termination_warning(termination: &Termination) -> Option<String> {
-    (!termination.is_converged()).then(|| {
-        format!("warning: the optimization {termination}; the result may not be at the minimum")
-    })
-}
-
 /// Runs `calibrate` `output.repeat` times (at least once), keeps the last result with the median
 /// wall time, and reports it: an error for a numerical failure, otherwise the summary on stdout
-/// (unless quiet), a warning on stderr when the solver did not converge, and the JSON file.
+/// (unless quiet; it lists the warnings), the warnings on stderr when quiet, and the JSON file
+/// (written atomically).
 /// `source` names the input in messages.
 pub fn calibrate_and_report<R: Report>(
     source: &str,
@@ -82,7 +129,7 @@ pub fn calibrate_and_report<R: Report>(
 ) -> Result<(), Failure> {
     let mut result = calibrate()?;
     let mut times = vec![*result.elapsed_mut()];
-    for _ in 1..output.repeat {
+    for _ in 1..output.repeat.max(1) {
         result = calibrate()?;
         times.push(*result.elapsed_mut());
     }
@@ -93,10 +140,11 @@ pub fn calibrate_and_report<R: Report>(
         return Err(Failure(format!("{source}: calibration failed: {why}")));
     }
     if !output.quiet {
-        print!("{}", result.summary());
-    }
-    if let Some(warning) = termination_warning(result.termination()) {
-        eprintln!("calib: {warning}");
+        print_stdout(&result.summary())?;
+    } else {
+        for w in result.warnings() {
+            let _ = writeln!(std::io::stderr(), "calib: {w}");
+        }
     }
     if let Some(path) = &output.output {
         let mut json = result.to_json();

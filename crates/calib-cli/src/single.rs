@@ -3,10 +3,11 @@
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::{Failure, parse_list};
 use calib_core::JsonFile;
+use calib_core::OutlierRejection;
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
 use camera_model::{CameraModel, Intrinsics, RotationKind};
 use clap::{Args, ValueEnum};
-use lm_solver::DampingPolicy;
+use lm_solver::{DampingPolicy, Loss};
 
 /// Options shared by the single and stereo commands.
 #[derive(Args, Debug, Clone)]
@@ -43,6 +44,19 @@ pub struct CameraArgs {
     /// Skip views that fail the checks (listed in the result) instead of stopping.
     #[arg(long)]
     pub skip_bad_views: bool,
+    /// Use every point: no outlier rejection (OpenCV's behaviour).
+    #[arg(long)]
+    pub no_outlier_rejection: bool,
+    /// Reject points whose error exceeds this many robust standard deviations of the noise
+    /// (and 1 px), then solve again.
+    #[arg(long, default_value_t = 5.0, value_name = "SIGMAS")]
+    pub outlier_threshold: f64,
+    /// Robust loss on each point's error (on top of or instead of outlier rejection).
+    #[arg(long, value_enum, default_value_t = LossKind::None)]
+    pub loss: LossKind,
+    /// Scale of the robust loss, pixels: errors below it count in full.
+    #[arg(long, default_value_t = 1.0, value_name = "PX")]
+    pub loss_scale: f64,
     /// Maximum Levenberg-Marquardt step attempts.
     #[arg(long, default_value_t = 500)]
     pub max_iterations: usize,
@@ -62,6 +76,16 @@ pub enum Rotation {
     AxisAngle,
     /// Rotation vector updated on the rotation manifold (no singular rotation).
     So3,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LossKind {
+    /// Least squares.
+    None,
+    /// Huber: quadratic up to the scale, linear beyond.
+    Huber,
+    /// Cauchy: the influence of far points decays like 1/error.
+    Cauchy,
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy)]
@@ -125,6 +149,31 @@ impl CameraArgs {
                 "--distortion-guess",
             )?);
         }
+        if !(self.outlier_threshold.is_finite() && self.outlier_threshold >= 2.0) {
+            return Err(Failure(format!(
+                "--outlier-threshold: expected a number of sigmas of at least 2, got {}",
+                self.outlier_threshold
+            )));
+        }
+        options.outliers = (!self.no_outlier_rejection)
+            .then(|| OutlierRejection::with_threshold(self.outlier_threshold));
+        if !(self.loss_scale.is_finite() && self.loss_scale > 0.0) {
+            return Err(Failure(format!(
+                "--loss-scale: expected a positive number of pixels, got {}",
+                self.loss_scale
+            )));
+        }
+        options.loss = match self.loss {
+            LossKind::None => Loss::Trivial,
+            LossKind::Huber => Loss::Huber(self.loss_scale),
+            LossKind::Cauchy => Loss::Cauchy(self.loss_scale),
+        };
+        if self.max_iterations == 0 || self.max_iterations > 1_000_000 {
+            return Err(Failure(format!(
+                "--max-iterations: expected 1 to 1000000, got {}",
+                self.max_iterations
+            )));
+        }
         options.solver.max_iterations = self.max_iterations;
         options.solver.num_threads = self.threads;
         options.solver.damping = match self.damping {
@@ -148,7 +197,8 @@ pub struct SingleArgs {
 }
 
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
-    let observations = Observations::read(&args.observations)?;
+    args.output.check_against(&[&args.observations])?;
+    let observations = Observations::read_bounded(&args.observations, args.output.max_input())?;
     let options = args.camera.options()?;
     calibrate_and_report(&args.observations, &args.output, || {
         calibrate(&observations, &options)

@@ -81,6 +81,8 @@ impl StereoArgs {
         options.solver = camera.solver.clone();
         options.rotation = camera.rotation;
         options.skip_bad_pairs = camera.skip_bad_views;
+        options.outliers = camera.outliers;
+        options.loss = camera.loss;
         options.left = left;
         options.right = right;
         options.fix_left_intrinsics = self.fix_left_intrinsics;
@@ -96,7 +98,8 @@ impl StereoArgs {
 }
 
 pub fn run(args: &StereoArgs) -> Result<(), Failure> {
-    let observations = StereoObservations::read(&args.pairs)?;
+    args.output.check_against(&[&args.pairs])?;
+    let observations = StereoObservations::read_bounded(&args.pairs, args.output.max_input())?;
     let options = args.options()?;
     calibrate_and_report(&args.pairs, &args.output, || {
         calibrate_stereo(&observations, &options)

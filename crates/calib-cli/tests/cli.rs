@@ -237,3 +237,138 @@ fn stereo_on_real_data_and_synthetic_rigs() {
     let err = String::from_utf8(run.stderr).unwrap();
     assert!(err.contains("pair 2"), "{err}");
 }
+
+/// A result never replaces its input, a failed run leaves a previous result intact, and a
+/// closed pipe is an error, not a panic.
+#[test]
+fn outputs_are_safe() {
+    let input = temp("input.json");
+    std::fs::copy(data("sourishg1/left.json"), &input).unwrap();
+    let before = std::fs::read(&input).unwrap();
+    // The same file, spelled differently.
+    let dir = input.parent().unwrap();
+    let alias = dir.join(".").join("input.json");
+    let run = calib()
+        .args(["single", "-q"])
+        .arg(&input)
+        .arg("-o")
+        .arg(&alias)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(err.contains("input file"), "{err}");
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+
+    // A previous result survives a failing calibration.
+    let out = temp("previous.json");
+    std::fs::write(&out, "previous").unwrap();
+    let bad = temp("bad.json");
+    std::fs::write(&bad, r#"{"image_size": [640, 480], "views": []}"#).unwrap();
+    let run = calib()
+        .args(["single", "-q"])
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous");
+
+    // Writing the summary into a closed pipe.
+    let mut child = calib()
+        .args(["single", &data("sourishg1/left.json")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let run = child.wait_with_output().unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(run.status.code(), Some(101), "{err}");
+
+    // Oversized input and absurd repeat counts are refused.
+    let run = calib()
+        .args([
+            "single",
+            &data("sourishg1/left.json"),
+            "--max-input-mb",
+            "0",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let run = calib()
+        .args([
+            "single",
+            &data("sourishg1/left.json"),
+            "--repeat",
+            "99999999",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+}
+
+/// Outlier rejection and the robust loss are reachable from the command line, and warnings
+/// reach stderr when the summary is off.
+#[test]
+fn outlier_options_and_warnings() {
+    let synth = temp("stray.json");
+    run_ok(
+        calib()
+            .args(["synth", "single", "--seed", "4", "-o"])
+            .arg(&synth),
+    );
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&synth).unwrap()).unwrap();
+    json["views"][2]["image_points"][10][0] =
+        serde_json::json!(json["views"][2]["image_points"][10][0].as_f64().unwrap() + 30.0);
+    std::fs::write(&synth, json.to_string()).unwrap();
+    let out = temp("stray-result.json");
+    let run = run_ok(
+        calib()
+            .args(["single", "-q"])
+            .arg(&synth)
+            .arg("-o")
+            .arg(&out),
+    );
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(err.contains("outliers-rejected"), "{err}");
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(result["num_rejected"], 1);
+    assert_eq!(result["views"][2]["rejected_points"][0], 10);
+    assert_eq!(result["warnings"][0]["code"], "outliers-rejected");
+
+    for extra in [
+        &["--no-outlier-rejection"][..],
+        &[
+            "--no-outlier-rejection",
+            "--loss",
+            "cauchy",
+            "--loss-scale",
+            "0.5",
+        ][..],
+    ] {
+        run_ok(
+            calib()
+                .args(["single", "-q"])
+                .arg(&synth)
+                .args(extra)
+                .arg("-o")
+                .arg(&out),
+        );
+        let result: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(result["num_rejected"], 0, "{extra:?}");
+    }
+    let run = calib()
+        .args(["single", "-q"])
+        .arg(&synth)
+        .args(["--outlier-threshold", "0.5"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+}

@@ -149,6 +149,22 @@ pub enum CalibrationError {
         /// What the user can do.
         hint: String,
     },
+    /// More than half of a view's points are far from the calibrated model: the view's points do
+    /// not match the board (wrong board size or orientation, mixed-up files), not a few bad
+    /// corners.
+    #[error(
+        "{location}: {rejected} of {points} points are outliers: the view does not match the board (wrong correspondences?); remove it or skip bad views"
+    )]
+    MostlyOutliers {
+        /// Index of the observation in the problem.
+        observation: usize,
+        /// The view in user terms ("view 3 (img03.png)", "pair 2, camera 'left'").
+        location: String,
+        /// Number of rejected points.
+        rejected: usize,
+        /// Number of used points.
+        points: usize,
+    },
     /// The optimization produced a non-finite value.
     #[error("the optimization diverged ({0})")]
     Diverged(String),

@@ -18,12 +18,14 @@ pub mod init;
 pub mod io;
 mod kernel;
 pub mod options;
+pub mod outliers;
 pub mod problem;
 pub mod result;
 pub mod rig;
 pub mod single;
 pub mod solve;
 pub mod synthetic;
+pub mod warnings;
 
 pub use cost::JointCost;
 pub use data::{ImageSize, View};
@@ -31,10 +33,12 @@ pub use error::{CalibrationError, PointKind};
 pub use init::FocalInit;
 pub use io::{JsonFile, ReadError, read_text, write_atomically};
 pub use options::{CalibrationOptions, default_solver_options};
+pub use outliers::OutlierRejection;
 pub use problem::{CameraSpec, JointProblem, ObservationSpec, ProblemError};
 pub use result::{CameraEstimate, SkippedView, StageTimes, ViewResult};
 pub use single::{PreparedCamera, prepare_camera};
 pub use solve::{JointSolution, SolveOptions, reprojection_errors, solve};
+pub use warnings::{Warning, WarningCode};
 
 pub use camera_model;
 pub use lm_solver;

@@ -1,9 +1,10 @@
 //! Options of a camera's calibration (each camera of a stereo pair or rig has its own).
 
 use crate::init::FocalInit;
+use crate::outliers::OutlierRejection;
 use camera_model::{CameraModel, Intrinsics, RotationKind};
-use homography::RefineOptions;
-use lm_solver::SolverOptions;
+use homography::{RefineOptions, RobustOptions};
+use lm_solver::{Loss, SolverOptions};
 
 /// What to estimate and how. `CalibrationOptions::default()` estimates everything (fx, fy, cx, cy,
 /// k1, k2, p1, p2 and the poses) from the closed-form start, like OpenCV's `calibrateCamera` with
@@ -42,8 +43,15 @@ pub struct CalibrationOptions {
     /// zero; a caller that only needs a starting point (the stereo pipeline's single-camera stage)
     /// saves the rank check and the inversion.
     pub compute_uncertainty: bool,
+    /// Reject points far beyond the noise and solve again (default on: 5 robust sigmas, never
+    /// below 0.5 px; see [`crate::outliers`]). `None` uses every point, like OpenCV.
+    pub outliers: Option<OutlierRejection>,
+    /// Robust loss on each point's squared error, px^2 (default none: least squares).
+    pub loss: Loss,
     /// Homography refinement settings.
     pub homography: RefineOptions,
+    /// Robust homography settings: views with stray corners start from the corners that agree.
+    pub robust_homography: RobustOptions,
     /// Levenberg-Marquardt settings.
     pub solver: SolverOptions,
 }
@@ -63,6 +71,9 @@ impl Default for CalibrationOptions {
             focal_init: FocalInit::Bouguet,
             skip_bad_views: false,
             compute_uncertainty: true,
+            outliers: Some(OutlierRejection::default()),
+            loss: Loss::Trivial,
+            robust_homography: RobustOptions::default(),
             homography: RefineOptions {
                 cost_tolerance: 1e-10,
                 step_tolerance: 1e-8,
@@ -74,6 +85,17 @@ impl Default for CalibrationOptions {
 }
 
 impl CalibrationOptions {
+    /// The engine's solve settings for these options.
+    pub fn solve_options(&self) -> crate::SolveOptions {
+        crate::SolveOptions {
+            rotation: self.rotation,
+            solver: self.solver.clone(),
+            loss: self.loss,
+            compute_uncertainty: self.compute_uncertainty,
+            outliers: self.outliers,
+        }
+    }
+
     /// Holds the named distortion coefficients ("k2", "p1", ...) of the model, or says which names
     /// the model has.
     pub fn fix_distortion_by_name(&mut self, names: &[&str]) -> Result<(), String> {

@@ -87,6 +87,10 @@ pub struct ObservationSpec {
     /// Per-point weights (`None`: all one). A point's squared residual is multiplied by its
     /// weight before the loss; zero removes it from the fit.
     pub weights: Option<Vec<f64>>,
+    /// Points suspected to be outliers before the solve (e.g. by the robust homography), same
+    /// length: with outlier rejection on they start out rejected and are readmitted if the
+    /// calibrated model fits them; with it off they are used like every other point.
+    pub suspected: Option<Vec<bool>>,
 }
 
 impl ObservationSpec {
@@ -106,6 +110,7 @@ impl ObservationSpec {
             pixels,
             point_ids: None,
             weights: None,
+            suspected: None,
         }
     }
 
@@ -320,10 +325,11 @@ impl JointProblem {
             let n = o.object.len();
             let weights_ok = o.weights.as_ref().is_none_or(|w| w.len() == n);
             let ids_ok = o.point_ids.as_ref().is_none_or(|ids| ids.len() == n);
-            if o.pixels.len() != n || !ids_ok || !weights_ok {
+            let suspected_ok = o.suspected.as_ref().is_none_or(|s| s.len() == n);
+            if o.pixels.len() != n || !ids_ok || !weights_ok || !suspected_ok {
                 return Err(ProblemError::Observation {
                     name: o.name.clone(),
-                    reason: "points, pixels, ids and weights differ in length".into(),
+                    reason: "points, pixels, ids, weights and suspects differ in length".into(),
                 });
             }
             if n == 0 {

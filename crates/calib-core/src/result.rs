@@ -196,11 +196,14 @@ pub struct ViewResult {
     pub pose_params: [f64; 6],
     /// Standard deviations of `pose_params` (same units: radians, board units).
     pub pose_std: [f64; 6],
-    /// RMS reprojection error of this view, pixels.
+    /// RMS reprojection error of this view's used points, pixels.
     pub rms: f64,
-    /// Number of points used.
+    /// Number of points used (rejected outliers not counted).
     #[serde(rename = "points")]
     pub num_points: usize,
+    /// Points rejected as outliers: their indices in the view's input lists.
+    #[serde(default)]
+    pub rejected_points: Vec<usize>,
 }
 
 /// A view left out because it failed the checks (only with `skip_bad_views`).

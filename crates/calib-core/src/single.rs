@@ -11,7 +11,7 @@ use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
 use camera_model::{AnyCamera, CameraModel, Pose};
-use nalgebra::{Matrix3, Point2};
+use nalgebra::{Matrix3, Point2, Point3};
 use std::time::{Duration, Instant};
 
 /// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
@@ -73,6 +73,9 @@ pub fn check_view(index: usize, view: &View) -> Result<(), CalibrationError> {
     }
     Ok(())
 }
+
+/// A view's board points and pixels.
+type PointLists = (Vec<Point3<f64>>, Vec<Point2<f64>>);
 
 /// One camera ready to be solved: its usable views, their homographies and the start.
 #[derive(Debug, Clone)]
@@ -180,6 +183,7 @@ pub fn prepare_camera(
     check_options(options)?;
     let mut used = Vec::new();
     let mut homographies = Vec::new();
+    let mut inliers = Vec::new();
     let mut skipped = Vec::new();
     for &(index, view) in views {
         let result = check_view(index, view).and_then(|()| {
@@ -188,17 +192,22 @@ pub fn prepare_camera(
                 .iter()
                 .map(|p| Point2::new(p.x, p.y))
                 .collect();
-            homography::estimate(&object, &view.image_points, &options.homography)
-                .map(|e| e.h)
-                .map_err(|source| CalibrationError::Homography {
-                    view: index,
-                    source,
-                })
+            homography::estimate_robust(
+                &object,
+                &view.image_points,
+                &options.homography,
+                &options.robust_homography,
+            )
+            .map_err(|source| CalibrationError::Homography {
+                view: index,
+                source,
+            })
         });
         match result {
-            Ok(h) => {
+            Ok(r) => {
                 used.push((index, view));
-                homographies.push(h);
+                homographies.push(r.estimate.h);
+                inliers.push((r.num_inliers < r.inliers.len()).then_some(r.inliers));
             }
             Err(e) if options.skip_bad_views => skipped.push(SkippedView {
                 index,
@@ -213,22 +222,50 @@ pub fn prepare_camera(
             skipped: skipped.len(),
         });
     }
+    // The start uses the points that agree with their view's homography.
+    let start_points: Vec<PointLists> = used
+        .iter()
+        .zip(&inliers)
+        .filter_map(|((_, v), keep)| {
+            keep.as_ref().map(|keep| {
+                let pick = |i: &usize| keep[*i];
+                (
+                    (0..keep.len())
+                        .filter(pick)
+                        .map(|i| v.object_points[i])
+                        .collect(),
+                    (0..keep.len())
+                        .filter(pick)
+                        .map(|i| v.image_points[i])
+                        .collect(),
+                )
+            })
+        })
+        .collect();
+    let mut filtered = start_points.iter();
+    let start_views: Vec<crate::init::ViewPoints<'_>> = used
+        .iter()
+        .zip(&inliers)
+        .map(|((_, v), keep)| match keep {
+            Some(_) => {
+                let (o, m) = filtered.next().expect("one filtered view per suspect mask");
+                (o.as_slice(), m.as_slice())
+            }
+            None => (v.object_points.as_slice(), v.image_points.as_slice()),
+        })
+        .collect();
     let homographies_done = Instant::now();
 
     let (intrinsics, start_method) = match options.intrinsic_guess {
         Some(guess) => (guess, StartMethod::Given),
         None => {
-            let views: Vec<crate::init::ViewPoints<'_>> = used
-                .iter()
-                .map(|(_, v)| (v.object_points.as_slice(), v.image_points.as_slice()))
-                .collect();
             let scoring = ScoringCamera {
                 model: options.model,
                 fixed: fixed_camera_components(options, used.len()),
             };
             start_intrinsics(
                 &homographies,
-                &views,
+                &start_views,
                 image_size,
                 &scoring,
                 options.focal_init,
@@ -247,8 +284,8 @@ pub fn prepare_camera(
     let initial = AnyCamera::new(options.model, intrinsics, distortion)
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
     let mut initial_poses = Vec::with_capacity(used.len());
-    for (&(index, view), h) in used.iter().zip(&homographies) {
-        let pose = initial_pose(h, &intrinsics, &view.object_points).ok_or_else(|| {
+    for ((&(index, view), h), (object, _)) in used.iter().zip(&homographies).zip(&start_views) {
+        let pose = initial_pose(h, &intrinsics, object).ok_or_else(|| {
             CalibrationError::Initialization {
                 reason: format!("view {index}: no pose from its homography"),
             }
@@ -257,6 +294,7 @@ pub fn prepare_camera(
             .object_points
             .iter()
             .position(|x| pose.transform_point(x).z <= 0.0)
+            .filter(|_| object.len() == view.object_points.len())
         {
             return Err(CalibrationError::PointBehindCamera { view: index, point });
         }
@@ -270,15 +308,18 @@ pub fn prepare_camera(
             .then(|| intrinsics.fx / intrinsics.fy),
         observations: used
             .iter()
+            .zip(inliers)
             .enumerate()
-            .map(|(k, (_, view))| {
-                ObservationSpec::new(
+            .map(|(k, ((_, view), keep))| {
+                let mut o = ObservationSpec::new(
                     0,
                     k,
                     view.name.clone(),
                     view.object_points.clone(),
                     view.image_points.iter().map(|p| p.coords).collect(),
-                )
+                );
+                o.suspected = keep.map(|keep| keep.iter().map(|k| !k).collect());
+                o
             })
             .collect(),
         views: used.iter().map(|(i, v)| (*i, v.name.clone())).collect(),

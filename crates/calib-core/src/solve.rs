@@ -8,7 +8,9 @@
 
 use crate::cost::{JointCost, residual_layouts};
 use crate::error::CalibrationError;
+use crate::outliers::{self, OutlierRejection};
 use crate::problem::{BoardNormalization, JointProblem};
+use crate::warnings::{Warning, WarningCode};
 use camera_model::{
     AnyCamera, AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization, So3,
 };
@@ -32,6 +34,9 @@ pub struct SolveOptions {
     pub loss: Loss,
     /// Compute the covariance (standard deviations) at the solution.
     pub compute_uncertainty: bool,
+    /// Reject outliers and solve again until the rejected set is stable (`None`: use every
+    /// point, and ignore the observations' suspects). See [`crate::outliers`].
+    pub outliers: Option<OutlierRejection>,
 }
 
 impl Default for SolveOptions {
@@ -42,6 +47,7 @@ impl Default for SolveOptions {
             solver,
             loss: Loss::Trivial,
             compute_uncertainty: true,
+            outliers: Some(OutlierRejection::default()),
         }
     }
 }
@@ -78,6 +84,24 @@ pub struct JointSolution {
     pub residual_variance: f64,
     /// The rotation parameterization of the parameters above.
     pub rotation: RotationKind,
+    /// Per observation, the points (indices into the observation) rejected as outliers.
+    pub rejected: Vec<Vec<usize>>,
+    /// Re-solves after rejecting outliers (0 when nothing was rejected).
+    pub outlier_rounds: usize,
+    /// Iterations over all solves (equal to `report.iterations.len()` without re-solves).
+    pub total_iterations: usize,
+    /// The cost (half the weighted sum of squared errors, px^2) at the start of the first
+    /// solve.
+    pub initial_cost: f64,
+    /// What deserves attention: the solver's iteration limit, rejected outliers.
+    pub warnings: Vec<Warning>,
+}
+
+impl JointSolution {
+    /// Number of points rejected as outliers.
+    pub fn num_rejected(&self) -> usize {
+        self.rejected.iter().map(Vec::len).sum()
+    }
 }
 
 /// The solver's parameter blocks of a [`JointProblem`].
@@ -88,7 +112,15 @@ pub(crate) struct Blocks {
     pub frames: Vec<ParameterBlockId>,
 }
 
-/// Solves `problem` from its start values.
+/// Solves `problem` from its start values; with `options.outliers`, rejects outliers (starting
+/// with the observations' suspects) and solves again from the previous solution until the
+/// rejected set no longer changes.
+///
+/// # Errors
+///
+/// Input errors in user terms, [`CalibrationError::MostlyOutliers`] for a view that loses more
+/// than `max_view_fraction` of its points, solver failures, and parameters the data does not
+/// determine ([`CalibrationError::NotDetermined`]).
 pub fn solve(
     problem: &JointProblem,
     options: &SolveOptions,
@@ -96,6 +128,155 @@ pub fn solve(
     problem
         .check()
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
+    let Some(rejection) = options.outliers else {
+        let mut solution = solve_once(problem, options)?;
+        solution.total_iterations = solution.report.iterations.len();
+        add_solver_warnings(&mut solution);
+        return Ok(solution);
+    };
+    let mut rejected: Vec<Vec<bool>> = problem
+        .observations
+        .iter()
+        .map(|o| match &o.suspected {
+            Some(s) => s
+                .iter()
+                .enumerate()
+                .map(|(i, &s)| s && o.weights.as_ref().is_none_or(|w| w[i] > 0.0))
+                .collect(),
+            None => vec![false; o.object.len()],
+        })
+        .collect();
+    let mut warm: Option<JointProblem> = None;
+    let mut total_iterations = 0;
+    let mut initial_cost = None;
+    let mut rounds = 0;
+    loop {
+        let base = warm.as_ref().unwrap_or(problem);
+        let mut solution = if rejected.iter().flatten().any(|&r| r) {
+            let mut work = base.clone();
+            outliers::apply(&mut work, &rejected);
+            solve_once(&work, options)?
+        } else {
+            solve_once(base, options)?
+        };
+        total_iterations += solution.report.iterations.len();
+        let first_cost = *initial_cost.get_or_insert(solution.report.initial_cost);
+        let marked = outliers::mark(problem, &solution.residuals, &rejection);
+        if marked == rejected || rounds == rejection.max_rounds {
+            solution.rejected = rejected
+                .iter()
+                .map(|r| (0..r.len()).filter(|&i| r[i]).collect())
+                .collect();
+            solution.outlier_rounds = rounds;
+            solution.total_iterations = total_iterations;
+            solution.initial_cost = first_cost;
+            add_solver_warnings(&mut solution);
+            add_outlier_warning(problem, &mut solution, &rejection);
+            return Ok(solution);
+        }
+        check_view_fractions(problem, &marked, &rejection)?;
+        rejected = marked;
+        rounds += 1;
+        warm = Some(warm_started(problem, &solution));
+    }
+}
+
+/// `problem` with the start values replaced by `solution` (cameras, rig, frames).
+fn warm_started(problem: &JointProblem, solution: &JointSolution) -> JointProblem {
+    let mut p = problem.clone();
+    for (spec, camera) in p.cameras.iter_mut().zip(&solution.cameras) {
+        spec.initial = camera.clone();
+    }
+    p.rig.clone_from(&solution.rig);
+    p.frames.clone_from(&solution.frames);
+    p
+}
+
+/// Where observation `o` is, in user terms: its frame's name and, with several cameras, the
+/// camera's.
+fn locate(problem: &JointProblem, o: usize) -> String {
+    let obs = &problem.observations[o];
+    let frame = &problem.frame_names[obs.frame];
+    if problem.cameras.len() > 1 {
+        format!("{frame}, camera '{}'", problem.cameras[obs.camera].name)
+    } else {
+        frame.clone()
+    }
+}
+
+fn check_view_fractions(
+    problem: &JointProblem,
+    rejected: &[Vec<bool>],
+    options: &OutlierRejection,
+) -> Result<(), CalibrationError> {
+    for (o, r) in rejected.iter().enumerate() {
+        let points = problem.observations[o].num_used_points();
+        let count = r.iter().filter(|&&r| r).count();
+        if count as f64 > options.max_view_fraction * points as f64 {
+            return Err(CalibrationError::MostlyOutliers {
+                observation: o,
+                location: locate(problem, o),
+                rejected: count,
+                points,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn add_solver_warnings(solution: &mut JointSolution) {
+    if solution.report.termination == lm_solver::Termination::MaxIterations {
+        let n = solution.report.iterations.len();
+        solution.warnings.push(Warning::new(
+            WarningCode::IterationLimit,
+            format!(
+                "the solver stopped at its iteration limit ({n} iterations) before converging: the result may not be the minimum; raise the limit or check the data"
+            ),
+        ));
+    }
+}
+
+fn add_outlier_warning(
+    problem: &JointProblem,
+    solution: &mut JointSolution,
+    options: &OutlierRejection,
+) {
+    let total = solution.num_rejected();
+    if total == 0 {
+        return;
+    }
+    let mut worst: Vec<(usize, usize)> = solution
+        .rejected
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| !r.is_empty())
+        .map(|(o, r)| (r.len(), o))
+        .collect();
+    worst.sort_by(|a, b| b.cmp(a));
+    let listed: Vec<String> = worst
+        .iter()
+        .take(5)
+        .map(|&(n, o)| format!("{} ({n})", locate(problem, o)))
+        .collect();
+    let more = if worst.len() > 5 { ", ..." } else { "" };
+    solution.warnings.push(Warning::new(
+        WarningCode::OutliersRejected,
+        format!(
+            "{total} points in {} view{} rejected as outliers (error above {} sigma and {} px): {}{more}; the result lists them per view. If they lie at the image's edges in many views, the lens model may be too simple for the lens (try a model with more terms)",
+            worst.len(),
+            if worst.len() == 1 { "" } else { "s" },
+            options.threshold_sigmas,
+            options.min_threshold_px,
+            listed.join(", ")
+        ),
+    ));
+}
+
+/// One solve of `problem` as given (weights as they are).
+fn solve_once(
+    problem: &JointProblem,
+    options: &SolveOptions,
+) -> Result<JointSolution, CalibrationError> {
     let normalization = problem.board_normalization();
     let normalized;
     let target = match &normalization {
@@ -488,6 +669,7 @@ fn solve_with<R: RotationParameterization>(
         }
         residuals.push(e);
     }
+    let initial_cost = report.initial_cost;
     let solution = JointSolution {
         cameras,
         camera_std,
@@ -502,6 +684,11 @@ fn solve_with<R: RotationParameterization>(
         report,
         residual_variance: weighted / (used_rows - free) as f64,
         rotation: options.rotation,
+        rejected: vec![Vec::new(); problem.observations.len()],
+        outlier_rounds: 0,
+        total_iterations: 0,
+        initial_cost,
+        warnings: Vec::new(),
     };
     check_finite(&solution)?;
     Ok(solution)

@@ -81,6 +81,18 @@ pub enum SyntheticError {
         /// The view.
         view: usize,
     },
+    /// No board pose in front of both cameras of a stereo rig showed the whole board to both.
+    #[error(
+        "could not place the board so that both cameras see all of it for pair {view}: the board ({board_width:.1} wide) is small against the baseline ({baseline:.1}) at the distances that fill the image; use a larger board or square size, or a shorter baseline (--rig)"
+    )]
+    NotSeenByBoth {
+        /// The pair.
+        view: usize,
+        /// The board's width, board units.
+        board_width: f64,
+        /// The rig's baseline, board units.
+        baseline: f64,
+    },
     /// A setting is out of range.
     #[error("invalid setting: {0}")]
     Invalid(String),

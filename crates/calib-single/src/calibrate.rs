@@ -5,7 +5,7 @@ use crate::observations::{Observations, View};
 use crate::result::Calibration;
 use calib_core::single::camera_param_names;
 use calib_core::{
-    CalibrationError, CalibrationOptions, SolveOptions, StageTimes, ViewResult, prepare_camera,
+    CalibrationError, CalibrationOptions, SkippedView, StageTimes, ViewResult, prepare_camera,
 };
 use camera_model::{AnyCamera, Pose};
 use nalgebra::Vector2;
@@ -27,71 +27,101 @@ pub fn calibrate(
     options: &CalibrationOptions,
 ) -> Result<Calibration, CalibrationError> {
     let start = Instant::now();
-    let views: Vec<(usize, &View)> = observations.views.iter().enumerate().collect();
-    let prepared = prepare_camera(&views, observations.image_size, options)?;
-    let used = prepared.views.clone();
-    let (fixed, skipped, times) = (
-        prepared.fixed.clone(),
-        prepared.skipped.clone(),
-        prepared.times,
-    );
-    let (image_size, initial_intrinsics) = (prepared.image_size, prepared.initial.intrinsics);
-    let initial_method = prepared.start_method;
-    let problem = prepared.into_problem("camera");
-    let mut solve_options = SolveOptions::default();
-    solve_options.rotation = options.rotation;
-    solve_options.solver = options.solver.clone();
-    solve_options.compute_uncertainty = options.compute_uncertainty;
-    let solve_start = Instant::now();
-    let solution = calib_core::solve(&problem, &solve_options)?;
-    let solve_time = solve_start.elapsed();
+    let mut dropped: Vec<SkippedView> = Vec::new();
+    let (prepared, solution, solve_time) = loop {
+        let views: Vec<(usize, &View)> = observations
+            .views
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !dropped.iter().any(|d| d.index == *i))
+            .collect();
+        let prepared = prepare_camera(&views, observations.image_size, options)?;
+        let problem = prepared.problem("camera");
+        let solve_start = Instant::now();
+        match calib_core::solve(&problem, &options.solve_options()) {
+            Ok(solution) => break (prepared, solution, solve_start.elapsed()),
+            // A view whose points mostly miss the model is wrong as a whole: drop it and start
+            // again without it.
+            Err(e @ CalibrationError::MostlyOutliers { observation, .. })
+                if options.skip_bad_views =>
+            {
+                let (index, name) = prepared.views[observation].clone();
+                dropped.push(SkippedView {
+                    index,
+                    name,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    let mut skipped = prepared.skipped.clone();
+    skipped.extend(dropped);
+    skipped.sort_by_key(|s| s.index);
 
-    let num_points: usize = problem.observations.iter().map(|o| o.object.len()).sum();
     let names = camera_param_names(options.model);
     let std = &solution.camera_std[0];
     let (mut sum_sq, mut sum_x, mut sum_y, mut sum_xx, mut sum_yy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let mut views = Vec::with_capacity(used.len());
-    for (k, (index, name)) in used.iter().enumerate() {
+    let (mut num_points, mut all_sq, mut all_points) = (0usize, 0.0, 0usize);
+    let mut views = Vec::with_capacity(prepared.views.len());
+    for (k, (index, name)) in prepared.views.iter().enumerate() {
         let errors: &[Vector2<f64>] = &solution.residuals[k];
-        let view_sq: f64 = errors.iter().map(|e| e.norm_squared()).sum();
-        for e in errors {
+        let rejected = &solution.rejected[k];
+        let (mut view_sq, mut view_points) = (0.0, 0);
+        for (i, e) in errors.iter().enumerate() {
+            all_sq += e.norm_squared();
+            all_points += 1;
+            if rejected.contains(&i) {
+                continue;
+            }
+            view_sq += e.norm_squared();
+            view_points += 1;
             sum_x += e.x;
             sum_y += e.y;
             sum_xx += e.x * e.x;
             sum_yy += e.y * e.y;
         }
         sum_sq += view_sq;
+        num_points += view_points;
         views.push(ViewResult {
             index: *index,
             name: name.clone(),
             pose: solution.frames[k],
             pose_params: solution.frame_params[k],
             pose_std: solution.frame_std[k],
-            rms: (view_sq / errors.len() as f64).sqrt(),
-            num_points: errors.len(),
+            rms: (view_sq / view_points.max(1) as f64).sqrt(),
+            num_points: view_points,
+            rejected_points: rejected.clone(),
         });
     }
     let np = num_points as f64;
     let sample_std = |s: f64, ss: f64| ((ss - s * s / np) / (np - 1.0).max(1.0)).max(0.0).sqrt();
-    let (homographies, initialization) = times;
+    let (homographies, initialization) = prepared.times;
     let optimization = solution.report.total_time;
     let calibration = Calibration {
         camera: solution.cameras[0].clone(),
         intrinsics_std: [std[0], std[1], std[2], std[3]],
         distortion_std: std[4..].to_vec(),
-        fixed_parameters: fixed.iter().map(|&i| names[i].to_string()).collect(),
-        image_size,
+        fixed_parameters: prepared
+            .fixed
+            .iter()
+            .map(|&i| names[i].to_string())
+            .collect(),
+        image_size: prepared.image_size,
         rotation: options.rotation,
         views,
         skipped_views: skipped,
         rms: (sum_sq / np).sqrt(),
+        rms_all_points: (all_sq / all_points as f64).sqrt(),
+        num_rejected: all_points - num_points,
         residual_std: [sample_std(sum_x, sum_xx), sample_std(sum_y, sum_yy)],
         residual_variance: solution.residual_variance,
         num_points,
-        initial_intrinsics,
-        initial_method,
-        // The cost is half the sum of squared residuals.
-        initial_rms: (2.0 * solution.report.initial_cost / np).sqrt(),
+        initial_intrinsics: prepared.initial.intrinsics,
+        initial_method: prepared.start_method,
+        // The cost is half the (weighted) sum of squared residuals of the first solve.
+        initial_rms: (2.0 * solution.initial_cost / np).sqrt(),
+        warnings: solution.warnings.clone(),
         solver: solution.report,
         elapsed: start.elapsed(),
         stage_times: StageTimes {

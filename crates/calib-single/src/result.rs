@@ -8,6 +8,7 @@ pub use calib_core::result::{
     CameraEstimate, SkippedView, StageTimes, ViewResult, write_camera_summary,
 };
 use calib_core::result::{deserialize_versioned, duration_from_seconds};
+use calib_core::warnings::{Warning, write_warnings};
 use camera_model::{AnyCamera, Intrinsics, RotationKind};
 use lm_solver::SolverReport;
 use serde::{Deserialize, Serialize};
@@ -36,9 +37,13 @@ pub struct Calibration {
     pub views: Vec<ViewResult>,
     /// Views that were skipped.
     pub skipped_views: Vec<SkippedView>,
-    /// Overall RMS reprojection error, pixels: `sqrt(sum |e|^2 / number of points)` (OpenCV's
-    /// definition).
+    /// Overall RMS reprojection error of the used points, pixels: `sqrt(sum |e|^2 / number of
+    /// points)` (OpenCV's definition; rejected outliers left out).
     pub rms: f64,
+    /// The RMS over every point, rejected outliers included, pixels.
+    pub rms_all_points: f64,
+    /// Number of points rejected as outliers (listed per view).
+    pub num_rejected: usize,
     /// Sample standard deviations of the x and y residuals separately (Bouguet's "pixel error").
     pub residual_std: [f64; 2],
     /// Residual variance `|r|^2 / (2 N - p)` used to scale the covariance (pixels^2).
@@ -51,7 +56,9 @@ pub struct Calibration {
     pub initial_method: StartMethod,
     /// RMS at the initial guess, pixels.
     pub initial_rms: f64,
-    /// The Levenberg-Marquardt report.
+    /// What deserves attention (empty when all is well).
+    pub warnings: Vec<Warning>,
+    /// The Levenberg-Marquardt report (of the last solve when outliers were rejected).
     pub solver: SolverReport,
     /// Wall time of the whole calibration (checks, homographies, initialization, optimization,
     /// covariance).
@@ -80,6 +87,12 @@ struct CalibrationJson {
     distortion_model: String,
     image_size: ImageSize,
     rms: f64,
+    #[serde(default)]
+    rms_all_points: f64,
+    #[serde(default)]
+    num_rejected: usize,
+    #[serde(default)]
+    warnings: Vec<Warning>,
     elapsed_seconds: f64,
     stage_seconds: StageTimes,
     num_points: usize,
@@ -131,6 +144,9 @@ impl Calibration {
             distortion_model: self.camera.model.to_string(),
             image_size: self.image_size,
             rms: self.rms,
+            rms_all_points: self.rms_all_points,
+            num_rejected: self.num_rejected,
+            warnings: self.warnings.clone(),
             elapsed_seconds: self.elapsed.as_secs_f64(),
             stage_seconds: self.stage_times,
             num_points: self.num_points,
@@ -172,6 +188,9 @@ impl Calibration {
             views: j.views,
             skipped_views: j.skipped_views,
             rms: j.rms,
+            rms_all_points: j.rms_all_points,
+            num_rejected: j.num_rejected,
+            warnings: j.warnings,
             residual_std: j.residual_std_xy,
             residual_variance: j.residual_variance,
             num_points: j.num_points,
@@ -221,6 +240,13 @@ impl Calibration {
             self.initial_method.name(),
             self.initial_rms
         );
+        if self.num_rejected > 0 {
+            let _ = writeln!(
+                out,
+                "  {} points rejected as outliers (RMS over all points {:.5} px)",
+                self.num_rejected, self.rms_all_points
+            );
+        }
         let worst: Vec<String> = self
             .worst_views()
             .iter()
@@ -235,6 +261,7 @@ impl Calibration {
                 skipped.index, skipped.name, skipped.reason
             );
         }
+        write_warnings(&mut out, "  ", &self.warnings);
         let _ = writeln!(
             out,
             "  solver: {} after {} iterations ({} accepted), {:.3} ms in total",

@@ -36,8 +36,47 @@ pub fn calibrate_stereo(
     if observations.pairs.is_empty() {
         return Err(StereoError::NoPairs { skipped: 0 });
     }
-    let (kept, skipped) = select_pairs(observations, options)?;
+    let (mut kept, mut skipped) = select_pairs(observations, options)?;
+    loop {
+        match calibrate_pairs(observations, &kept, (left_size, right_size), options) {
+            Ok(mut result) => {
+                skipped.sort_by_key(|s| s.index);
+                result.skipped_pairs = skipped;
+                result.elapsed = start.elapsed();
+                return Ok(result);
+            }
+            // A pair whose view mostly misses the model is wrong as a whole: with
+            // `skip_bad_pairs`, drop it and start again.
+            Err((error, Some(k))) if options.skip_bad_pairs && kept.len() > 1 => {
+                skipped.push(SkippedPair {
+                    index: kept[k],
+                    reason: error.to_string(),
+                });
+                kept.remove(k);
+            }
+            Err((error, _)) => return Err(error),
+        }
+    }
+}
 
+/// Which kept pair (its position in `kept`) a view-level outlier error is about.
+fn mostly_outliers_pair(error: &CalibrationError, observations_per_pair: usize) -> Option<usize> {
+    match error {
+        CalibrationError::MostlyOutliers { observation, .. } => {
+            Some(observation / observations_per_pair)
+        }
+        _ => None,
+    }
+}
+
+/// The stereo calibration of the pairs `kept`; on failure, the error and, for a pair whose
+/// points mostly miss the model, its position in `kept`.
+fn calibrate_pairs(
+    observations: &StereoObservations,
+    kept: &[usize],
+    (left_size, right_size): (calib_core::ImageSize, calib_core::ImageSize),
+    options: &StereoOptions,
+) -> Result<StereoCalibration, (StereoError, Option<usize>)> {
     // Single-camera calibrations on the kept pairs.
     let single = |side: Side, camera_options: &CalibrationOptions, size| {
         let t = Instant::now();
@@ -56,9 +95,15 @@ pub fn calibrate_stereo(
                 )
             })
             .collect();
-        let camera_error = |source| StereoError::Camera {
-            camera: side,
-            source,
+        let camera_error = |source: CalibrationError| {
+            let pair = mostly_outliers_pair(&source, 1);
+            (
+                StereoError::Camera {
+                    camera: side,
+                    source,
+                },
+                pair,
+            )
         };
         let prepared = prepare_camera(&views, Some(size), &camera_options).map_err(camera_error)?;
         let spec = prepared.camera_spec(&side.to_string());
@@ -67,15 +112,15 @@ pub fn calibrate_stereo(
         // parameter to the full tolerance: stop at a relative cost change of 1e-6 (the last
         // iterations of a full convergence move the parameters by far less than the joint
         // stage's first step) and skip the uncertainties.
-        let mut solve = SolveOptions::default();
+        let mut solve = camera_options.solve_options();
         solve.rotation = options.rotation;
-        solve.solver = camera_options.solver.clone();
+        solve.outliers = options.outliers;
         solve.solver.num_threads = options.solver.num_threads;
         solve.solver.function_tolerance = solve.solver.function_tolerance.max(1e-6);
         solve.compute_uncertainty = false;
         let solution = calib_core::solve(&prepared.into_problem(&side.to_string()), &solve)
             .map_err(camera_error)?;
-        Ok::<_, StereoError>((spec, start_method, solution, t.elapsed()))
+        Ok::<_, (StereoError, Option<usize>)>((spec, start_method, solution, t.elapsed()))
     };
     let (left_prepared, left_method, left_single, left_time) =
         single(Side::Left, &options.left, left_size)?;
@@ -86,41 +131,64 @@ pub fn calibrate_stereo(
         Some(rig) => rig,
         None => initial_rig(options.rig_init, &left_single.frames, &right_single.frames)
             .ok_or_else(|| {
-                StereoError::RigInitialization("no rotation from the per-pair poses".into())
+                (
+                    StereoError::RigInitialization("no rotation from the per-pair poses".into()),
+                    None,
+                )
             })?,
     };
     let joint_start = Instant::now();
-    let problem = joint_problem(
+    let mut problem = joint_problem(
         observations,
-        &kept,
+        kept,
         options,
         [left_prepared, right_prepared],
         [&left_single.cameras[0], &right_single.cameras[0]],
         &left_single.frames,
         rig0,
     );
+    // Points the single-camera stages rejected start out rejected (and may come back).
+    for (k, o) in problem.observations.iter_mut().enumerate() {
+        let single = if k % 2 == 0 {
+            &left_single
+        } else {
+            &right_single
+        };
+        let rejected = &single.rejected[k / 2];
+        if !rejected.is_empty() {
+            let mut suspected = vec![false; o.object.len()];
+            for &i in rejected {
+                suspected[i] = true;
+            }
+            o.suspected = Some(suspected);
+        }
+    }
     let mut solve = SolveOptions::default();
     solve.rotation = options.rotation;
     solve.solver = options.solver.clone();
-    let solution = calib_core::solve(&problem, &solve).map_err(|e| joint_error(e, &kept))?;
+    solve.loss = options.loss;
+    solve.outliers = options.outliers;
+    let solution = calib_core::solve(&problem, &solve).map_err(|e| {
+        let pair = mostly_outliers_pair(&e, 2);
+        (joint_error(e), pair)
+    })?;
     let joint_done = Instant::now();
     let mut result = assemble(
         observations,
-        &kept,
-        skipped,
+        kept,
         &problem,
         solution,
         rig0,
         [left_time, right_time, joint_done - joint_start],
-        start,
-    )?;
+    )
+    .map_err(|e| (e, None))?;
     result.initial_methods = [left_method, right_method];
     Ok(result)
 }
 
 /// Maps an engine error of the joint stage to the stereo error (its messages already name the
 /// cameras and pairs).
-fn joint_error(error: CalibrationError, _kept: &[usize]) -> StereoError {
+fn joint_error(error: CalibrationError) -> StereoError {
     match error {
         CalibrationError::TooFewObservations {
             residuals,
@@ -250,18 +318,21 @@ fn select_pairs(
         let mut result = check_pair(index, pair);
         if result.is_ok() && options.skip_bad_pairs {
             // The single-camera calibrations would stop on a bad homography; find it here.
-            for (camera, view, homography_options) in [
-                (Side::Left, &pair.left, &options.left.homography),
-                (Side::Right, &pair.right, &options.right.homography),
+            for (camera, view, camera_options) in [
+                (Side::Left, &pair.left, &options.left),
+                (Side::Right, &pair.right, &options.right),
             ] {
                 let object: Vec<Point2<f64>> = view
                     .object_points
                     .iter()
                     .map(|p| Point2::new(p.x, p.y))
                     .collect();
-                if let Err(source) =
-                    homography::estimate(&object, &view.image_points, homography_options)
-                {
+                if let Err(source) = homography::estimate_robust(
+                    &object,
+                    &view.image_points,
+                    &camera_options.homography,
+                    &camera_options.robust_homography,
+                ) {
                     result = Err(StereoError::View {
                         pair: index,
                         camera,
@@ -309,28 +380,40 @@ fn fundamental_matrix(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn assemble(
     observations: &StereoObservations,
     kept: &[usize],
-    skipped: Vec<SkippedPair>,
     problem: &JointProblem,
     solution: JointSolution,
     rig0: Pose,
     times: [std::time::Duration; 3],
-    start: Instant,
 ) -> Result<StereoCalibration, StereoError> {
-    let squared: Vec<f64> = solution
+    // Sums over the used points (rejected outliers left out) and over all points.
+    let kept_sums: Vec<(f64, usize)> = solution
         .residuals
         .iter()
-        .map(|e| e.iter().map(|v| v.norm_squared()).sum())
+        .zip(&solution.rejected)
+        .map(|(e, rejected)| {
+            e.iter()
+                .enumerate()
+                .filter(|(i, _)| !rejected.contains(i))
+                .fold((0.0, 0), |(s, n), (_, v)| (s + v.norm_squared(), n + 1))
+        })
         .collect();
-    let points: Vec<usize> = solution.residuals.iter().map(Vec::len).collect();
+    let all_squared: f64 = solution
+        .residuals
+        .iter()
+        .flatten()
+        .map(|v| v.norm_squared())
+        .sum();
+    let all_points: usize = solution.residuals.iter().map(Vec::len).sum();
     let estimate = |c: usize, name: &str| {
         let std = &solution.camera_std[c];
-        let (sum, n) = (0..squared.len())
+        let (sum, n) = (0..kept_sums.len())
             .filter(|&o| problem.observations[o].camera == c)
-            .fold((0.0, 0), |(s, n), o| (s + squared[o], n + points[o]));
+            .fold((0.0, 0), |(s, n), o| {
+                (s + kept_sums[o].0, n + kept_sums[o].1)
+            });
         let spec = &problem.cameras[c];
         let names = camera_param_names(spec.model());
         CameraEstimate {
@@ -348,6 +431,7 @@ fn assemble(
     let rig = solution.rig[1];
     let essential = skew(&rig.translation) * rig.rotation;
     let fundamental = fundamental_matrix(&left.camera, &right.camera, &essential);
+    let rms_of = |(s, n): (f64, usize)| (s / n.max(1) as f64).sqrt();
     let pairs = kept
         .iter()
         .enumerate()
@@ -359,14 +443,17 @@ fn assemble(
                 left_pose: solution.frames[k],
                 pose_params: solution.frame_params[k],
                 pose_std: solution.frame_std[k],
-                rms_left: (squared[2 * k] / points[2 * k] as f64).sqrt(),
-                rms_right: (squared[2 * k + 1] / points[2 * k + 1] as f64).sqrt(),
-                num_points: points[2 * k],
+                rms_left: rms_of(kept_sums[2 * k]),
+                rms_right: rms_of(kept_sums[2 * k + 1]),
+                num_points: solution.residuals[2 * k].len(),
+                rejected_left: solution.rejected[2 * k].clone(),
+                rejected_right: solution.rejected[2 * k + 1].clone(),
             }
         })
         .collect();
-    let total_points: usize = points.iter().sum();
-    let total_squared: f64 = squared.iter().sum();
+    let (total_squared, total_points) = kept_sums
+        .iter()
+        .fold((0.0, 0), |(s, n), &(s2, n2)| (s + s2, n + n2));
     let joint = solution.report.total_time;
     Ok(StereoCalibration {
         left,
@@ -379,14 +466,17 @@ fn assemble(
         fundamental,
         baseline: rig.translation.norm(),
         rms: (total_squared / total_points as f64).sqrt(),
+        rms_all_points: (all_squared / all_points as f64).sqrt(),
+        num_rejected: all_points - total_points,
         pairs,
-        skipped_pairs: skipped,
+        skipped_pairs: Vec::new(),
         residual_variance: solution.residual_variance,
         initial_rig: rig0,
         initial_methods: [StartMethod::Given; 2],
-        initial_rms: (2.0 * solution.report.initial_cost / total_points as f64).sqrt(),
+        initial_rms: (2.0 * solution.initial_cost / total_points as f64).sqrt(),
+        warnings: solution.warnings,
         solver: solution.report,
-        elapsed: start.elapsed(),
+        elapsed: std::time::Duration::ZERO,
         stage_times: [times[0], times[1], joint, times[2].saturating_sub(joint)],
     })
 }

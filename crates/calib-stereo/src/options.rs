@@ -1,9 +1,10 @@
 //! Options of the stereo calibration.
 
+use calib_core::OutlierRejection;
 use calib_core::rig::RigInit;
 use calib_single::{CalibrationOptions, default_solver_options};
 use camera_model::{Pose, RotationKind};
-use lm_solver::SolverOptions;
+use lm_solver::{Loss, SolverOptions};
 
 /// What to estimate and how. The default estimates both cameras, all left poses and the rig from
 /// the single-camera calibrations, like OpenCV's `stereoCalibrate` with `CALIB_FIX_K3` and no
@@ -31,6 +32,11 @@ pub struct StereoOptions {
     pub rig_init: RigInit,
     /// Rotation parameterization of the poses and the rig during the joint optimization.
     pub rotation: RotationKind,
+    /// Outlier rejection for both the single-camera stages and the joint optimization (default
+    /// on; `None` uses every point, like OpenCV). See `calib_core::outliers`.
+    pub outliers: Option<OutlierRejection>,
+    /// Robust loss on each point's squared error in the joint optimization, px^2.
+    pub loss: Loss,
     /// Skip pairs that fail the checks (listed in the result) instead of failing.
     pub skip_bad_pairs: bool,
     /// Levenberg-Marquardt settings of the joint optimization (its thread count also applies to
@@ -49,6 +55,8 @@ impl Default for StereoOptions {
             rig_guess: None,
             rig_init: RigInit::default(),
             rotation: RotationKind::EulerXyz,
+            outliers: Some(OutlierRejection::default()),
+            loss: Loss::Trivial,
             skip_bad_pairs: false,
             solver: default_solver_options(),
         }

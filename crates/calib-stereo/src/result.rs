@@ -5,6 +5,7 @@
 use calib_core::init::StartMethod;
 pub use calib_core::result::CameraEstimate;
 use calib_core::result::{deserialize_versioned, duration_from_seconds, seconds};
+use calib_core::warnings::{Warning, write_warnings};
 use camera_model::{AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization};
 use lm_solver::SolverReport;
 use nalgebra::Matrix3;
@@ -35,9 +36,15 @@ pub struct PairResult {
     pub rms_left: f64,
     /// RMS of the right view, pixels.
     pub rms_right: f64,
-    /// Points per view (the left view's).
+    /// Points per view (the left view's), rejected outliers included.
     #[serde(rename = "points")]
     pub num_points: usize,
+    /// Points of the left view rejected as outliers (indices in its input lists).
+    #[serde(default)]
+    pub rejected_left: Vec<usize>,
+    /// Points of the right view rejected as outliers.
+    #[serde(default)]
+    pub rejected_right: Vec<usize>,
 }
 
 mod names {
@@ -94,8 +101,14 @@ pub struct StereoCalibration {
     pub fundamental: Matrix3<f64>,
     /// `|T|`, board units.
     pub baseline: f64,
-    /// RMS over all points of both cameras, pixels.
+    /// RMS over the used points of both cameras, pixels (rejected outliers left out).
     pub rms: f64,
+    /// RMS over every point, rejected outliers included, pixels.
+    pub rms_all_points: f64,
+    /// Number of points rejected as outliers (listed per pair).
+    pub num_rejected: usize,
+    /// What deserves attention (empty when all is well).
+    pub warnings: Vec<Warning>,
     /// One entry per used pair.
     pub pairs: Vec<PairResult>,
     /// Pairs that were skipped.
@@ -156,6 +169,12 @@ struct StereoJson {
     #[serde(default)]
     rig_convention: String,
     rms: f64,
+    #[serde(default)]
+    rms_all_points: f64,
+    #[serde(default)]
+    num_rejected: usize,
+    #[serde(default)]
+    warnings: Vec<Warning>,
     elapsed_seconds: f64,
     stage_seconds: StageSeconds,
     num_pairs: usize,
@@ -196,6 +215,9 @@ impl StereoCalibration {
                 .into(),
             rig_convention: "X_right = R X_left + T; poses map board to left camera".into(),
             rms: self.rms,
+            rms_all_points: self.rms_all_points,
+            num_rejected: self.num_rejected,
+            warnings: self.warnings.clone(),
             elapsed_seconds: self.elapsed.as_secs_f64(),
             stage_seconds: StageSeconds {
                 left_single_camera: self.stage_times[0],
@@ -252,6 +274,9 @@ impl StereoCalibration {
             fundamental: from_rows(&j.f),
             baseline: j.baseline,
             rms: j.rms,
+            rms_all_points: j.rms_all_points,
+            num_rejected: j.num_rejected,
+            warnings: j.warnings,
             pairs: j.pairs,
             skipped_pairs: j.skipped_pairs,
             residual_variance: j.residual_variance,
@@ -324,9 +349,17 @@ impl StereoCalibration {
             .map(|p| format!("pair {} ({:.3}/{:.3} px)", p.index, p.rms_left, p.rms_right))
             .collect();
         let _ = writeln!(out, "  worst pairs (left/right RMS): {}", worst.join(", "));
+        if self.num_rejected > 0 {
+            let _ = writeln!(
+                out,
+                "  {} points rejected as outliers (RMS over all points {:.5} px)",
+                self.num_rejected, self.rms_all_points
+            );
+        }
         for skipped in &self.skipped_pairs {
             let _ = writeln!(out, "  skipped pair {}: {}", skipped.index, skipped.reason);
         }
+        write_warnings(&mut out, "  ", &self.warnings);
         let _ = writeln!(
             out,
             "  solver: {} after {} iterations ({} accepted), {:.3} ms in total",

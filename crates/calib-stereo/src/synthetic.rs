@@ -92,7 +92,11 @@ pub fn generate_stereo(
                 )?;
                 Some((pose, l, r))
             })
-            .ok_or(SyntheticError::CannotPlaceBoard { view })?;
+            .ok_or(SyntheticError::NotSeenByBoth {
+                view,
+                board_width: width,
+                baseline: config.rig.translation.norm(),
+            })?;
         pairs.push(StereoPair {
             left: View {
                 name: format!("left{view}"),

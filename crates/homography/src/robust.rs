@@ -102,8 +102,7 @@ impl Sampler {
 ///
 /// # Errors
 ///
-/// What [`estimate`] reports for the whole set when LMedS is not needed or for the inliers
-/// otherwise, and [`HomographyError::NoConsensus`] when fewer than half the points (or fewer than
+/// What [`estimate`] reports for the whole set (degenerate input) or for the inliers, and [`HomographyError::NoConsensus`] when fewer than half the points (or fewer than
 /// four) fit one homography.
 pub fn estimate_robust(
     object: &[Point2<f64>],
@@ -112,8 +111,10 @@ pub fn estimate_robust(
     options: &RobustOptions,
 ) -> Result<RobustEstimate, HomographyError> {
     let n = object.len();
-    let all = estimate(object, image, refine_options);
-    if let Ok(e) = &all {
+    // Degenerate input (too few points, collinear board) is reported as such.
+    let all = estimate(object, image, refine_options)?;
+    {
+        let e = &all;
         let r = residuals(&e.h, object, image);
         let max = r.iter().copied().fold(0.0, f64::max);
         let med = median(&mut r.clone());
@@ -131,8 +132,8 @@ pub fn estimate_robust(
     }
     if n < 5 {
         // Nothing to vote with: four points always fit exactly.
-        return all.map(|e| RobustEstimate {
-            estimate: e,
+        return Ok(RobustEstimate {
+            estimate: all,
             inliers: vec![true; n],
             num_inliers: n,
         });
