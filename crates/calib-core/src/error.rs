@@ -57,6 +57,24 @@ pub enum CalibrationError {
         /// Number of image points.
         image: usize,
     },
+    /// An image point lies outside the image (by more than a small margin).
+    #[error(
+        "view {view}, point {point}: pixel ({x:.1}, {y:.1}) lies outside the {width}x{height} image: is the image size right?"
+    )]
+    PointOutsideImage {
+        /// View index.
+        view: usize,
+        /// Point index.
+        point: usize,
+        /// The pixel's x.
+        x: f64,
+        /// The pixel's y.
+        y: f64,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+    },
     /// A view has fewer than 4 points (a homography needs 4).
     #[error("view {view}: {found} points, at least 4 are needed")]
     TooFewPoints {

@@ -13,6 +13,7 @@
 
 pub mod cost;
 pub mod data;
+pub mod diagnostics;
 pub mod error;
 pub mod init;
 pub mod io;

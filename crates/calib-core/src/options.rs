@@ -39,6 +39,10 @@ pub struct CalibrationOptions {
     /// Skip views that fail the input checks or whose homography cannot be estimated, and list
     /// them in the result, instead of failing.
     pub skip_bad_views: bool,
+    /// Leave out views that repeat an earlier view (same homography within
+    /// [`crate::diagnostics::DUPLICATE_TOLERANCE_PX`]), with a warning (default `true`; the
+    /// stereo and rig front ends check whole frames instead).
+    pub drop_duplicate_views: bool,
     /// Compute the standard deviations (default `true`). Without them the result's sigmas are
     /// zero; a caller that only needs a starting point (the stereo pipeline's single-camera stage)
     /// saves the rank check and the inversion.
@@ -70,6 +74,7 @@ impl Default for CalibrationOptions {
             rotation: RotationKind::EulerXyz,
             focal_init: FocalInit::Bouguet,
             skip_bad_views: false,
+            drop_duplicate_views: true,
             compute_uncertainty: true,
             outliers: Some(OutlierRejection::default()),
             loss: Loss::Trivial,

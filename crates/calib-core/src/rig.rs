@@ -93,6 +93,40 @@ pub fn median_rig(left: &[Pose], right: &[Pose]) -> Option<Pose> {
     Some(Pose::new(rotation, translation))
 }
 
+/// For each frame, the angle (radians) between its rig rotation `R_R R_L^T` and the medoid of
+/// all frames' rig rotations. On a rigid rig with correct correspondences every angle is within
+/// the pose noise (a fraction of a degree); a frame whose right points are numbered the other
+/// way round, or whose views belong to different moments, stands out by tens of degrees.
+pub fn rig_rotation_disagreements(left: &[Pose], right: &[Pose]) -> Vec<f64> {
+    let rotations: Vec<Matrix3<f64>> = left
+        .iter()
+        .zip(right)
+        .map(|(l, r)| r.rotation * l.rotation.transpose())
+        .collect();
+    let angle =
+        |a: &Matrix3<f64>, b: &Matrix3<f64>| AxisAngle::from_matrix(&(a.transpose() * b)).norm();
+    // The medoid of at most 64 evenly spread frames: O(m) for large rigs.
+    let step = rotations.len().div_ceil(64).max(1);
+    let sample: Vec<usize> = (0..rotations.len()).step_by(step).collect();
+    let Some(&medoid) = sample.iter().min_by(|&&i, &&j| {
+        let si: f64 = sample
+            .iter()
+            .map(|&k| angle(&rotations[i], &rotations[k]))
+            .sum();
+        let sj: f64 = sample
+            .iter()
+            .map(|&k| angle(&rotations[j], &rotations[k]))
+            .sum();
+        si.total_cmp(&sj)
+    }) else {
+        return Vec::new();
+    };
+    rotations
+        .iter()
+        .map(|r| angle(&rotations[medoid], r))
+        .collect()
+}
+
 /// The initial rig by the chosen method.
 pub fn initial_rig(method: RigInit, left: &[Pose], right: &[Pose]) -> Option<Pose> {
     match method {

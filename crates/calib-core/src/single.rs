@@ -5,11 +5,13 @@
 //! Walk-through with formulas: `docs/calib-single.md`.
 
 use crate::data::{ImageSize, View};
+use crate::diagnostics::{check_inside_image, duplicate_views};
 use crate::error::{CalibrationError, PointKind};
 use crate::init::{ScoringCamera, StartMethod, initial_pose, start_intrinsics};
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
+use crate::warnings::{Warning, WarningCode};
 use camera_model::{AnyCamera, CameraModel, Pose};
 use nalgebra::{Matrix3, Point2, Point3};
 use std::time::{Duration, Instant};
@@ -102,6 +104,8 @@ pub struct PreparedCamera {
     pub aspect_ratio: Option<f64>,
     /// Time spent on checks and homographies, and on the closed-form start.
     pub times: (Duration, Duration),
+    /// What the preparation noticed (duplicate views left out).
+    pub warnings: Vec<Warning>,
 }
 
 /// Indices of the camera block `[fx, fy, cx, cy, distortion...]` held fixed by `options` for a
@@ -186,23 +190,25 @@ pub fn prepare_camera(
     let mut inliers = Vec::new();
     let mut skipped = Vec::new();
     for &(index, view) in views {
-        let result = check_view(index, view).and_then(|()| {
-            let object: Vec<Point2<f64>> = view
-                .object_points
-                .iter()
-                .map(|p| Point2::new(p.x, p.y))
-                .collect();
-            homography::estimate_robust(
-                &object,
-                &view.image_points,
-                &options.homography,
-                &options.robust_homography,
-            )
-            .map_err(|source| CalibrationError::Homography {
-                view: index,
-                source,
-            })
-        });
+        let result = check_view(index, view)
+            .and_then(|()| check_inside_image(index, view, image_size))
+            .and_then(|()| {
+                let object: Vec<Point2<f64>> = view
+                    .object_points
+                    .iter()
+                    .map(|p| Point2::new(p.x, p.y))
+                    .collect();
+                homography::estimate_robust(
+                    &object,
+                    &view.image_points,
+                    &options.homography,
+                    &options.robust_homography,
+                )
+                .map_err(|source| CalibrationError::Homography {
+                    view: index,
+                    source,
+                })
+            });
         match result {
             Ok(r) => {
                 used.push((index, view));
@@ -220,6 +226,51 @@ pub fn prepare_camera(
     if used.is_empty() {
         return Err(CalibrationError::NoViews {
             skipped: skipped.len(),
+        });
+    }
+    let mut warnings = Vec::new();
+    let duplicates = if !options.drop_duplicate_views {
+        Vec::new()
+    } else {
+        let views: Vec<&View> = used.iter().map(|(_, v)| *v).collect();
+        duplicate_views(&views, &homographies)
+    };
+    if !duplicates.is_empty() {
+        let described: Vec<String> = duplicates
+            .iter()
+            .take(10)
+            .map(|&(copy, original)| format!("view {} = view {}", used[copy].0, used[original].0))
+            .collect();
+        warnings.push(Warning::new(
+            WarningCode::DuplicateViews,
+            format!(
+                "{} view{} repeat{} an earlier view (the board did not move, or a file is listed twice) and {} left out: {}{}",
+                duplicates.len(),
+                if duplicates.len() > 1 { "s" } else { "" },
+                if duplicates.len() > 1 { "" } else { "s" },
+                if duplicates.len() > 1 { "were" } else { "was" },
+                described.join(", "),
+                if duplicates.len() > 10 { ", ..." } else { "" }
+            ),
+        ));
+        let mut drop = vec![false; used.len()];
+        for &(copy, _) in &duplicates {
+            drop[copy] = true;
+        }
+        let mut k = 0;
+        used.retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+        let mut k = 0;
+        homographies.retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+        let mut k = 0;
+        inliers.retain(|_| {
+            k += 1;
+            !drop[k - 1]
         });
     }
     // The start uses the points that agree with their view's homography.
@@ -330,6 +381,7 @@ pub fn prepare_camera(
         initial_poses,
         fixed,
         times: (homographies_done - start, homographies_done.elapsed()),
+        warnings,
     })
 }
 

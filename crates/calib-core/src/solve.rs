@@ -132,6 +132,8 @@ pub fn solve(
         let mut solution = solve_once(problem, options)?;
         solution.total_iterations = solution.report.iterations.len();
         add_solver_warnings(&mut solution);
+        let camera = crate::diagnostics::camera_warnings(problem, &solution);
+        solution.warnings.extend(camera);
         return Ok(solution);
     };
     let mut rejected: Vec<Vec<bool>> = problem
@@ -172,6 +174,8 @@ pub fn solve(
             solution.initial_cost = first_cost;
             add_solver_warnings(&mut solution);
             add_outlier_warning(problem, &mut solution, &rejection);
+            let camera = crate::diagnostics::camera_warnings(problem, &solution);
+            solution.warnings.extend(camera);
             return Ok(solution);
         }
         check_view_fractions(problem, &marked, &rejection)?;

@@ -121,7 +121,12 @@ pub fn calibrate(
         initial_method: prepared.start_method,
         // The cost is half the (weighted) sum of squared residuals of the first solve.
         initial_rms: (2.0 * solution.initial_cost / np).sqrt(),
-        warnings: solution.warnings.clone(),
+        warnings: prepared
+            .warnings
+            .iter()
+            .chain(&solution.warnings)
+            .cloned()
+            .collect(),
         solver: solution.report,
         elapsed: start.elapsed(),
         stage_times: StageTimes {

@@ -214,8 +214,9 @@ impl Calibration {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "Calibration results ({} views, {} points, image {}x{}), uncertainties +- 3 sigma:",
+            "Calibration results ({} view{}, {} points, image {}x{}), uncertainties +- 3 sigma:",
             self.views.len(),
+            if self.views.len() == 1 { "" } else { "s" },
             self.num_points,
             self.image_size.width,
             self.image_size.height

@@ -146,7 +146,7 @@ fn a_view_from_another_lens_is_named_or_skipped() {
     let k = config.intrinsics;
     for p in obs.views[7].image_points.iter_mut() {
         let (x, y) = ((p.x - k.cx) / k.fx, (p.y - k.cy) / k.fy);
-        let s = 1.0 + 0.6 * (x * x + y * y);
+        let s = 1.0 - 0.4 * (x * x + y * y);
         p.x = k.cx + k.fx * x * s;
         p.y = k.cy + k.fy * y * s;
     }

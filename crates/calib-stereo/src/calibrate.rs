@@ -6,13 +6,15 @@ use crate::error::{Side, StereoError};
 use crate::observations::{StereoObservations, check_pair};
 use crate::options::StereoOptions;
 use crate::result::{PairResult, SkippedPair, StereoCalibration};
+use calib_core::diagnostics::{duplicate_views, same_view};
 use calib_core::init::StartMethod;
 use calib_core::result::CameraEstimate;
-use calib_core::rig::initial_rig;
+use calib_core::rig::{initial_rig, rig_rotation_disagreements};
 use calib_core::single::camera_param_names;
+use calib_core::warnings::{Warning, WarningCode};
 use calib_core::{
     CalibrationError, CalibrationOptions, JointProblem, JointSolution, ObservationSpec,
-    SolveOptions, View, prepare_camera,
+    PreparedCamera, SolveOptions, View, prepare_camera,
 };
 use camera_model::{AnyCamera, Pose, skew};
 use nalgebra::{Matrix3, Point2};
@@ -37,81 +39,175 @@ pub fn calibrate_stereo(
         return Err(StereoError::NoPairs { skipped: 0 });
     }
     let (mut kept, mut skipped) = select_pairs(observations, options)?;
+    let mut warnings = Vec::new();
     loop {
         match calibrate_pairs(observations, &kept, (left_size, right_size), options) {
             Ok(mut result) => {
                 skipped.sort_by_key(|s| s.index);
                 result.skipped_pairs = skipped;
+                warnings.append(&mut result.warnings);
+                result.warnings = warnings;
                 result.elapsed = start.elapsed();
                 return Ok(result);
             }
-            // A pair whose view mostly misses the model is wrong as a whole: with
-            // `skip_bad_pairs`, drop it and start again.
-            Err((error, Some(k))) if options.skip_bad_pairs && kept.len() > 1 => {
-                skipped.push(SkippedPair {
-                    index: kept[k],
-                    reason: error.to_string(),
-                });
-                kept.remove(k);
+            Err(PairsFailure::Error(error)) => return Err(error),
+            // Whole pairs that are wrong: with `skip_bad_pairs`, drop them and start again.
+            Err(PairsFailure::BadPairs(error, positions)) => {
+                if !options.skip_bad_pairs || positions.len() >= kept.len() {
+                    return Err(error);
+                }
+                let reason = error.to_string();
+                for &k in &positions {
+                    skipped.push(SkippedPair {
+                        index: kept[k],
+                        reason: reason.clone(),
+                    });
+                }
+                remove_positions(&mut kept, &positions);
             }
-            Err((error, _)) => return Err(error),
+            Err(PairsFailure::Duplicates(copies)) => {
+                let described: Vec<String> = copies
+                    .iter()
+                    .take(10)
+                    .map(|&(copy, original)| {
+                        format!("pair {} = pair {}", kept[copy], kept[original])
+                    })
+                    .collect();
+                warnings.push(Warning::new(
+                    WarningCode::DuplicateViews,
+                    format!(
+                        "{} pair{} repeat an earlier pair (the board did not move, or files are listed twice) and {} left out: {}{}",
+                        copies.len(),
+                        if copies.len() > 1 { "s" } else { "" },
+                        if copies.len() > 1 { "were" } else { "was" },
+                        described.join(", "),
+                        if copies.len() > 10 { ", ..." } else { "" }
+                    ),
+                ));
+                let positions: Vec<usize> = copies.iter().map(|c| c.0).collect();
+                remove_positions(&mut kept, &positions);
+            }
         }
     }
 }
 
-/// Which kept pair (its position in `kept`) a view-level outlier error is about.
-fn mostly_outliers_pair(error: &CalibrationError, observations_per_pair: usize) -> Option<usize> {
+fn remove_positions(kept: &mut Vec<usize>, positions: &[usize]) {
+    let mut k = 0;
+    kept.retain(|_| {
+        k += 1;
+        !positions.contains(&(k - 1))
+    });
+}
+
+/// Why [`calibrate_pairs`] stopped.
+enum PairsFailure {
+    /// A failure of the whole calibration.
+    Error(StereoError),
+    /// The pairs at these positions of `kept` are wrong (skippable).
+    BadPairs(StereoError, Vec<usize>),
+    /// Pairs (positions `(copy, original)`) repeating earlier ones: left out with a warning.
+    Duplicates(Vec<(usize, usize)>),
+}
+
+impl From<StereoError> for PairsFailure {
+    fn from(e: StereoError) -> Self {
+        PairsFailure::Error(e)
+    }
+}
+
+/// The pair-level reading of an engine error: a view that mostly misses the model makes its
+/// pair bad (the observation index divided by the observations per pair is its position).
+fn engine_failure(
+    error: CalibrationError,
+    observations_per_pair: usize,
+    wrap: impl FnOnce(CalibrationError) -> StereoError,
+) -> PairsFailure {
     match error {
         CalibrationError::MostlyOutliers { observation, .. } => {
-            Some(observation / observations_per_pair)
+            PairsFailure::BadPairs(wrap(error), vec![observation / observations_per_pair])
         }
-        _ => None,
+        other => PairsFailure::Error(wrap(other)),
     }
 }
 
-/// The stereo calibration of the pairs `kept`; on failure, the error and, for a pair whose
-/// points mostly miss the model, its position in `kept`.
+/// Largest angle (degrees) between a pair's rig rotation and the others' before the pair is
+/// called mismatched (correct pairs agree within the pose noise, a fraction of a degree).
+const MAX_RIG_DISAGREEMENT_DEG: f64 = 10.0;
+
+/// A baseline shorter than this fraction of the median board distance gets a warning.
+const SHORT_BASELINE: f64 = 0.01;
+
+/// The stereo calibration of the pairs `kept`.
 fn calibrate_pairs(
     observations: &StereoObservations,
     kept: &[usize],
     (left_size, right_size): (calib_core::ImageSize, calib_core::ImageSize),
     options: &StereoOptions,
-) -> Result<StereoCalibration, (StereoError, Option<usize>)> {
-    // Single-camera calibrations on the kept pairs.
-    let single = |side: Side, camera_options: &CalibrationOptions, size| {
+) -> Result<StereoCalibration, PairsFailure> {
+    let prepare = |side: Side, camera_options: &CalibrationOptions, size| {
         let t = Instant::now();
         let mut camera_options = camera_options.clone();
         camera_options.skip_bad_views = false;
+        camera_options.drop_duplicate_views = false;
         let views: Vec<(usize, &View)> = kept
             .iter()
-            .map(|&i| {
-                let pair = &observations.pairs[i];
-                (
-                    i,
-                    match side {
-                        Side::Left => &pair.left,
-                        Side::Right => &pair.right,
-                    },
-                )
-            })
+            .map(|&i| (i, observations.pairs[i].view(side)))
             .collect();
-        let camera_error = |source: CalibrationError| {
-            let pair = mostly_outliers_pair(&source, 1);
-            (
-                StereoError::Camera {
-                    camera: side,
-                    source,
-                },
-                pair,
+        let prepared = prepare_camera(&views, Some(size), &camera_options).map_err(|source| {
+            PairsFailure::Error(StereoError::Camera {
+                camera: side,
+                source,
+            })
+        })?;
+        Ok::<_, PairsFailure>((prepared, t.elapsed()))
+    };
+    let (left_prepared, left_prepare_time) = prepare(Side::Left, &options.left, left_size)?;
+    let (right_prepared, right_prepare_time) = prepare(Side::Right, &options.right, right_size)?;
+
+    // Pair-level checks on the homographies: a pair whose two views are the same image, pairs
+    // repeating earlier ones.
+    let identical: Vec<usize> = (0..kept.len())
+        .filter(|&k| {
+            let pair = &observations.pairs[kept[k]];
+            same_view(
+                &pair.left,
+                &left_prepared.homographies[k],
+                &pair.right,
+                &right_prepared.homographies[k],
             )
+        })
+        .collect();
+    if !identical.is_empty() {
+        let pairs = identical.iter().map(|&k| kept[k]).collect();
+        return Err(PairsFailure::BadPairs(
+            StereoError::IdenticalViews { pairs },
+            identical,
+        ));
+    }
+    let duplicates = {
+        let side_views = |side| -> Vec<&View> {
+            kept.iter()
+                .map(|&i| observations.pairs[i].view(side))
+                .collect()
         };
-        let prepared = prepare_camera(&views, Some(size), &camera_options).map_err(camera_error)?;
+        let left = duplicate_views(&side_views(Side::Left), &left_prepared.homographies);
+        let right = duplicate_views(&side_views(Side::Right), &right_prepared.homographies);
+        left.into_iter()
+            .filter(|d| right.contains(d))
+            .collect::<Vec<_>>()
+    };
+    if !duplicates.is_empty() {
+        return Err(PairsFailure::Duplicates(duplicates));
+    }
+
+    // Single-camera calibrations on the kept pairs. This stage only provides the start of the
+    // joint optimization, which refines every parameter to the full tolerance: stop at a
+    // relative cost change of 1e-6 (the last iterations of a full convergence move the
+    // parameters by far less than the joint stage's first step) and skip the uncertainties.
+    let single = |side: Side, camera_options: &CalibrationOptions, prepared: PreparedCamera| {
+        let t = Instant::now();
         let spec = prepared.camera_spec(&side.to_string());
         let start_method = prepared.start_method;
-        // This stage only provides the start of the joint optimization, which refines every
-        // parameter to the full tolerance: stop at a relative cost change of 1e-6 (the last
-        // iterations of a full convergence move the parameters by far less than the joint
-        // stage's first step) and skip the uncertainties.
         let mut solve = camera_options.solve_options();
         solve.rotation = options.rotation;
         solve.outliers = options.outliers;
@@ -119,22 +215,41 @@ fn calibrate_pairs(
         solve.solver.function_tolerance = solve.solver.function_tolerance.max(1e-6);
         solve.compute_uncertainty = false;
         let solution = calib_core::solve(&prepared.into_problem(&side.to_string()), &solve)
-            .map_err(camera_error)?;
-        Ok::<_, (StereoError, Option<usize>)>((spec, start_method, solution, t.elapsed()))
+            .map_err(|e| {
+                engine_failure(e, 1, |source| StereoError::Camera {
+                    camera: side,
+                    source,
+                })
+            })?;
+        Ok::<_, PairsFailure>((spec, start_method, solution, t.elapsed()))
     };
-    let (left_prepared, left_method, left_single, left_time) =
-        single(Side::Left, &options.left, left_size)?;
-    let (right_prepared, right_method, right_single, right_time) =
-        single(Side::Right, &options.right, right_size)?;
+    let (left_spec, left_method, left_single, left_time) =
+        single(Side::Left, &options.left, left_prepared)?;
+    let (right_spec, right_method, right_single, right_time) =
+        single(Side::Right, &options.right, right_prepared)?;
+
+    // Every pair must see the same rig: a pair whose right corners are numbered differently
+    // from its left ones, or whose views are from different moments, disagrees.
+    let disagreements = rig_rotation_disagreements(&left_single.frames, &right_single.frames);
+    let mismatched: Vec<usize> = (0..disagreements.len())
+        .filter(|&k| disagreements[k].to_degrees() > MAX_RIG_DISAGREEMENT_DEG)
+        .collect();
+    if !mismatched.is_empty() {
+        let pairs = mismatched
+            .iter()
+            .map(|&k| (kept[k], disagreements[k].to_degrees()))
+            .collect();
+        return Err(PairsFailure::BadPairs(
+            StereoError::MismatchedPairs { pairs },
+            mismatched,
+        ));
+    }
 
     let rig0 = match options.rig_guess {
         Some(rig) => rig,
         None => initial_rig(options.rig_init, &left_single.frames, &right_single.frames)
             .ok_or_else(|| {
-                (
-                    StereoError::RigInitialization("no rotation from the per-pair poses".into()),
-                    None,
-                )
+                StereoError::RigInitialization("no rotation from the per-pair poses".into())
             })?,
     };
     let joint_start = Instant::now();
@@ -142,7 +257,7 @@ fn calibrate_pairs(
         observations,
         kept,
         options,
-        [left_prepared, right_prepared],
+        [left_spec, right_spec],
         [&left_single.cameras[0], &right_single.cameras[0]],
         &left_single.frames,
         rig0,
@@ -168,10 +283,8 @@ fn calibrate_pairs(
     solve.solver = options.solver.clone();
     solve.loss = options.loss;
     solve.outliers = options.outliers;
-    let solution = calib_core::solve(&problem, &solve).map_err(|e| {
-        let pair = mostly_outliers_pair(&e, 2);
-        (joint_error(e), pair)
-    })?;
+    let solution =
+        calib_core::solve(&problem, &solve).map_err(|e| engine_failure(e, 2, joint_error))?;
     let joint_done = Instant::now();
     let mut result = assemble(
         observations,
@@ -179,10 +292,30 @@ fn calibrate_pairs(
         &problem,
         solution,
         rig0,
-        [left_time, right_time, joint_done - joint_start],
-    )
-    .map_err(|e| (e, None))?;
+        [
+            left_prepare_time + left_time,
+            right_prepare_time + right_time,
+            joint_done - joint_start,
+        ],
+    )?;
     result.initial_methods = [left_method, right_method];
+    let mut distances: Vec<f64> = result
+        .pairs
+        .iter()
+        .map(|p| p.left_pose.translation.norm())
+        .collect();
+    distances.sort_by(f64::total_cmp);
+    let distance = distances[distances.len() / 2];
+    if result.baseline < SHORT_BASELINE * distance {
+        result.warnings.push(Warning::new(
+            WarningCode::ShortBaseline,
+            format!(
+                "the baseline |T| = {:.4} is {:.2}% of the median board distance {distance:.4}: depth from this rig is unreliable and F is ill-conditioned; are both files from the same camera?",
+                result.baseline,
+                100.0 * result.baseline / distance
+            ),
+        ));
+    }
     Ok(result)
 }
 

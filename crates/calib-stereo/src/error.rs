@@ -63,6 +63,27 @@ pub enum StereoError {
         /// The single-camera error.
         source: CalibrationError,
     },
+    /// The left and right views of these pairs are the same image (same homography).
+    #[error(
+        "pair{} {}: the left and right views are the same image (the same file for both cameras?)",
+        if .pairs.len() > 1 { "s" } else { "" },
+        .pairs.iter().map(|p| p.to_string()).collect::<Vec<_>>().join(", ")
+    )]
+    IdenticalViews {
+        /// The pairs (input indices).
+        pairs: Vec<usize>,
+    },
+    /// These pairs see a different rig rotation than the others (by the given angle, degrees):
+    /// the right view's points are numbered differently from the left's (a board seen rotated
+    /// by 180 degrees, corners reversed), or the two views are from different moments.
+    #[error(
+        "{}: the rotation from the left to the right camera differs from the other pairs' by more than 10 degrees: are the right view's corners in the same order as the left's (not reversed or rotated), and are both views from the same moment?",
+        .pairs.iter().map(|(p, a)| format!("pair {p} ({a:.0} deg)")).collect::<Vec<_>>().join(", ")
+    )]
+    MismatchedPairs {
+        /// The pairs (input indices) with their disagreement in degrees.
+        pairs: Vec<(usize, f64)>,
+    },
     /// Not enough measurements for the free parameters.
     #[error("{residuals} residuals for {parameters} free parameters: add pairs or fix parameters")]
     TooFewObservations {

@@ -29,6 +29,16 @@ pub struct StereoPair {
     pub right: View,
 }
 
+impl StereoPair {
+    /// The view of camera `side`.
+    pub fn view(&self, side: crate::Side) -> &View {
+        match side {
+            crate::Side::Left => &self.left,
+            crate::Side::Right => &self.right,
+        }
+    }
+}
+
 /// All pairs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StereoObservations {

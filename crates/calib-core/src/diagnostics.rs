@@ -1,0 +1,316 @@
+//! Checks that catch data which cannot determine the answer, and warnings about results that
+//! deserve a second look. Errors stop a calibration (they name the view and point); warnings are
+//! attached to the result. Every one is listed in `docs/calib-single.md`.
+//!
+//! * Before solving: points outside the image (an error: the image size or the points are
+//!   wrong), duplicate views (the copies are dropped with a warning: they add no geometry, and
+//!   29 copies of one view make a confident-looking but meaningless result).
+//! * After solving: a principal point far from the image centre, parameters with a large
+//!   uncertainty, a view whose error is far above the others'.
+
+use crate::data::{ImageSize, View};
+use crate::error::CalibrationError;
+use crate::problem::JointProblem;
+use crate::solve::JointSolution;
+use crate::warnings::{Warning, WarningCode};
+use nalgebra::{Matrix3, Point2, Vector2};
+
+/// Two views are duplicates when their homographies map the board's extent to pixels less than
+/// this far apart: the board did not move (or the file was listed twice).
+pub const DUPLICATE_TOLERANCE_PX: f64 = 0.5;
+
+/// How far outside the image a point may lie, as a fraction of the image's dimension (plus half
+/// a pixel): corner detectors never report points outside the image, so anything beyond this
+/// means the image size or the points are wrong.
+pub const OUTSIDE_MARGIN: f64 = 0.01;
+
+/// A principal point farther than this fraction of the image's dimension from the centre gets a
+/// warning (real lenses are within a few percent; a wrong image size puts it far off).
+pub const PRINCIPAL_POINT_OFFSET: f64 = 0.2;
+
+/// A focal length whose 3-sigma uncertainty exceeds this fraction of its value, or a principal
+/// point whose 3-sigma uncertainty exceeds this fraction of the image, gets a warning.
+pub const POOR_RELATIVE_UNCERTAINTY: f64 = 0.1;
+
+/// A view whose RMS exceeds this multiple of the camera's median view RMS (and 1 px) gets a
+/// warning.
+pub const INCONSISTENT_VIEW_FACTOR: f64 = 5.0;
+
+/// Fails if a pixel of `view` lies outside the image by more than the margin.
+pub fn check_inside_image(
+    index: usize,
+    view: &View,
+    size: ImageSize,
+) -> Result<(), CalibrationError> {
+    let (w, h) = (f64::from(size.width), f64::from(size.height));
+    let (mx, my) = (0.5 + OUTSIDE_MARGIN * w, 0.5 + OUTSIDE_MARGIN * h);
+    match view
+        .image_points
+        .iter()
+        .position(|p| p.x < -mx || p.y < -my || p.x > w - 1.0 + mx || p.y > h - 1.0 + my)
+    {
+        Some(point) => Err(CalibrationError::PointOutsideImage {
+            view: index,
+            point,
+            x: view.image_points[point].x,
+            y: view.image_points[point].y,
+            width: size.width,
+            height: size.height,
+        }),
+        None => Ok(()),
+    }
+}
+
+fn apply(h: &Matrix3<f64>, p: &Point2<f64>) -> Vector2<f64> {
+    let w = h[(2, 0)] * p.x + h[(2, 1)] * p.y + h[(2, 2)];
+    Vector2::new(
+        (h[(0, 0)] * p.x + h[(0, 1)] * p.y + h[(0, 2)]) / w,
+        (h[(1, 0)] * p.x + h[(1, 1)] * p.y + h[(1, 2)]) / w,
+    )
+}
+
+/// The corners of the bounding box of a view's board points (board plane).
+fn extent_of(view: &View) -> [Point2<f64>; 4] {
+    let (mut lo, mut hi) = (Vector2::repeat(f64::MAX), Vector2::repeat(f64::MIN));
+    for p in &view.object_points {
+        lo = lo.inf(&p.xy().coords);
+        hi = hi.sup(&p.xy().coords);
+    }
+    [
+        Point2::new(lo.x, lo.y),
+        Point2::new(hi.x, lo.y),
+        Point2::new(hi.x, hi.y),
+        Point2::new(lo.x, hi.y),
+    ]
+}
+
+/// True if views `a` and `b` (with homographies `ha`, `hb`) show the board at the same place:
+/// each one's board extent lands within [`DUPLICATE_TOLERANCE_PX`] under both homographies.
+pub fn same_view(a: &View, ha: &Matrix3<f64>, b: &View, hb: &Matrix3<f64>) -> bool {
+    let (ea, eb) = (extent_of(a), extent_of(b));
+    (0..4).all(|k| {
+        (apply(ha, &ea[k]) - apply(hb, &ea[k])).norm() < DUPLICATE_TOLERANCE_PX
+            && (apply(ha, &eb[k]) - apply(hb, &eb[k])).norm() < DUPLICATE_TOLERANCE_PX
+    })
+}
+
+/// The duplicates among views with board points `views[i]` and homographies `homographies[i]`:
+/// pairs `(copy, original)` of positions, `original < copy`, each copy listed once. Cost:
+/// `O(n log n)` plus the comparisons of views whose board centres land within the tolerance.
+pub fn duplicate_views(views: &[&View], homographies: &[Matrix3<f64>]) -> Vec<(usize, usize)> {
+    // The corners of each view's board extent, and where its homography puts them.
+    let extents: Vec<[Point2<f64>; 4]> = views.iter().map(|v| extent_of(v)).collect();
+    let images: Vec<[Vector2<f64>; 4]> = extents
+        .iter()
+        .zip(homographies)
+        .map(|(e, h)| std::array::from_fn(|k| apply(h, &e[k])))
+        .collect();
+    let key = |i: usize| images[i].iter().map(|p| p.x).sum::<f64>() / 4.0;
+    let mut order: Vec<usize> = (0..views.len()).filter(|&i| key(i).is_finite()).collect();
+    order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
+    let mut position = vec![usize::MAX; views.len()];
+    for (p, &i) in order.iter().enumerate() {
+        position[i] = p;
+    }
+    let same = |i: usize, j: usize| {
+        // Both extents under both homographies: views of different board parts differ.
+        (0..4).all(|k| {
+            (apply(&homographies[j], &extents[i][k]) - images[i][k]).norm() < DUPLICATE_TOLERANCE_PX
+                && (apply(&homographies[i], &extents[j][k]) - images[j][k]).norm()
+                    < DUPLICATE_TOLERANCE_PX
+        })
+    };
+
+    let mut is_copy = vec![false; views.len()];
+    let mut pairs = Vec::new();
+    // In input order, so that the first occurrence is the one kept.
+    for i in 0..views.len() {
+        if is_copy[i] || position[i] == usize::MAX {
+            continue;
+        }
+        let p = position[i];
+        let near = order[..p]
+            .iter()
+            .rev()
+            .take_while(|&&j| key(i) - key(j) <= DUPLICATE_TOLERANCE_PX)
+            .chain(
+                order[p + 1..]
+                    .iter()
+                    .take_while(|&&j| key(j) - key(i) <= DUPLICATE_TOLERANCE_PX),
+            );
+        for &j in near {
+            if j > i && !is_copy[j] && same(i, j) {
+                is_copy[j] = true;
+                pairs.push((j, i));
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs
+}
+
+/// Warnings about each camera of a solved problem: principal point far off-centre, poorly
+/// determined intrinsics, views far less consistent than the others.
+pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<Warning> {
+    let mut warnings = Vec::new();
+    let several = problem.cameras.len() > 1;
+    for (c, spec) in problem.cameras.iter().enumerate() {
+        let who = if several {
+            format!("camera '{}': ", spec.name)
+        } else {
+            String::new()
+        };
+        let camera = &solution.cameras[c];
+        let k = camera.intrinsics;
+        let (w, h) = (
+            f64::from(spec.image_size.width),
+            f64::from(spec.image_size.height),
+        );
+        let pp_free = !(spec.fixed.contains(&2) && spec.fixed.contains(&3));
+        let (dx, dy) = (k.cx - (w - 1.0) / 2.0, k.cy - (h - 1.0) / 2.0);
+        if pp_free
+            && (dx.abs() > PRINCIPAL_POINT_OFFSET * w || dy.abs() > PRINCIPAL_POINT_OFFSET * h)
+        {
+            warnings.push(Warning::new(
+                WarningCode::PrincipalPointOffCentre,
+                format!(
+                    "{who}the principal point ({:.1}, {:.1}) is {:.0}% of the width and {:.0}% of the height from the centre of the {}x{} image: check the image size, or hold the principal point fixed",
+                    k.cx,
+                    k.cy,
+                    100.0 * dx.abs() / w,
+                    100.0 * dy.abs() / h,
+                    spec.image_size.width,
+                    spec.image_size.height
+                ),
+            ));
+        }
+        let std = &solution.camera_std[c];
+        if std.iter().any(|&s| s > 0.0) {
+            let mut poor = Vec::new();
+            for (i, (name, value, scale)) in [
+                ("fx", k.fx, k.fx),
+                ("fy", k.fy, k.fy),
+                ("cx", k.cx, w),
+                ("cy", k.cy, h),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if 3.0 * std[i] > POOR_RELATIVE_UNCERTAINTY * scale.abs() {
+                    poor.push(format!("{name} = {value:.1} +- {:.1}", 3.0 * std[i]));
+                }
+            }
+            if !poor.is_empty() {
+                warnings.push(Warning::new(
+                    WarningCode::PoorlyDetermined,
+                    format!(
+                        "{who}{} (3 sigma) {} poorly determined: add views with the board tilted in different directions and covering the whole image",
+                        poor.join(", "),
+                        if poor.len() > 1 { "are" } else { "is" }
+                    ),
+                ));
+            }
+        }
+        // Per-view RMS over the used points.
+        let rms: Vec<(usize, f64)> = problem
+            .observations
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.camera == c)
+            .map(|(i, _)| {
+                let (sum, n) = solution.residuals[i]
+                    .iter()
+                    .enumerate()
+                    .filter(|(p, _)| !solution.rejected[i].contains(p))
+                    .filter(|(p, _)| {
+                        problem.observations[i]
+                            .weights
+                            .as_ref()
+                            .is_none_or(|w| w[*p] > 0.0)
+                    })
+                    .fold((0.0, 0usize), |(s, n), (_, e)| {
+                        (s + e.norm_squared(), n + 1)
+                    });
+                (i, (sum / n.max(1) as f64).sqrt())
+            })
+            .collect();
+        if rms.len() >= 3 {
+            let mut sorted: Vec<f64> = rms.iter().map(|r| r.1).collect();
+            sorted.sort_by(f64::total_cmp);
+            let median = sorted[sorted.len() / 2];
+            let limit = (INCONSISTENT_VIEW_FACTOR * median).max(1.0);
+            let bad: Vec<String> = rms
+                .iter()
+                .filter(|r| r.1 > limit)
+                .map(|&(i, r)| {
+                    format!(
+                        "{} ({r:.2} px)",
+                        problem.frame_names[problem.observations[i].frame]
+                    )
+                })
+                .collect();
+            if !bad.is_empty() {
+                warnings.push(Warning::new(
+                    WarningCode::InconsistentView,
+                    format!(
+                        "{who}{} {} an error far above the others' (median {median:.3} px): wrong points or a different camera or lens setting? Check or remove {}",
+                        bad.join(", "),
+                        if bad.len() > 1 { "have" } else { "has" },
+                        if bad.len() > 1 { "them" } else { "it" }
+                    ),
+                ));
+            }
+        }
+    }
+    warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+
+    fn view(shift: f64) -> View {
+        let object: Vec<Point3<f64>> = (0..20)
+            .map(|i| Point3::new((i % 5) as f64, (i / 5) as f64, 0.0))
+            .collect();
+        View {
+            name: "v".into(),
+            image_points: object
+                .iter()
+                .map(|p| Point2::new(100.0 + 30.0 * p.x + shift, 80.0 + 30.0 * p.y))
+                .collect(),
+            object_points: object,
+        }
+    }
+
+    #[test]
+    fn duplicates_are_paired_with_their_first_occurrence() {
+        let views = [view(0.0), view(5.0), view(0.1), view(0.2), view(5.0)];
+        let hs: Vec<Matrix3<f64>> = [0.0, 5.0, 0.1, 0.2, 5.0]
+            .iter()
+            .map(|s| Matrix3::new(30.0, 0.0, 100.0 + s, 0.0, 30.0, 80.0, 0.0, 0.0, 1.0))
+            .collect();
+        let refs: Vec<&View> = views.iter().collect();
+        assert_eq!(duplicate_views(&refs, &hs), vec![(2, 0), (3, 0), (4, 1)]);
+    }
+
+    #[test]
+    fn points_outside_the_image_are_refused_with_their_place() {
+        let v = view(0.0);
+        assert!(check_inside_image(0, &v, ImageSize::new(640, 480)).is_ok());
+        let err = check_inside_image(3, &v, ImageSize::new(1, 1)).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                CalibrationError::PointOutsideImage {
+                    view: 3,
+                    point: 0,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("1x1"), "{err}");
+    }
+}
