@@ -9,7 +9,7 @@ use crate::result::{PairResult, SkippedPair, StereoCalibration};
 use calib_core::diagnostics::{duplicate_views, same_view};
 use calib_core::init::StartMethod;
 use calib_core::result::CameraEstimate;
-use calib_core::rig::{initial_rig, rig_rotation_disagreements};
+use calib_core::rig::{RigInit, initial_rig, rig_rotation_disagreements};
 use calib_core::single::camera_param_names;
 use calib_core::warnings::{Warning, WarningCode};
 use calib_core::{
@@ -131,11 +131,38 @@ fn engine_failure(
 }
 
 /// Largest angle (degrees) between a pair's rig rotation and the others' before the pair is
-/// called mismatched (correct pairs agree within the pose noise, a fraction of a degree).
-const MAX_RIG_DISAGREEMENT_DEG: f64 = 10.0;
+/// called mismatched. Correct pairs agree within the single-camera pose errors: a fraction of a
+/// degree on good captures, up to 11.5 degrees over the stereo convergence population (weak
+/// tilts, 3 views, 1 px noise); reversed or rotated corner orders disagree by 90 to 180.
+const MAX_RIG_DISAGREEMENT_DEG: f64 = 30.0;
 
 /// A baseline shorter than this fraction of the median board distance gets a warning.
 const SHORT_BASELINE: f64 = 0.01;
+
+/// Sum of squared start errors of `problem` (px^2), or `None` if some point cannot be projected.
+fn start_cost(problem: &JointProblem) -> Option<f64> {
+    let errors = calib_core::reprojection_errors(problem).ok()?;
+    let cost: f64 = errors.iter().flatten().map(|e| e.norm_squared()).sum();
+    cost.is_finite().then_some(cost)
+}
+
+/// Rigs to try when the default start cannot be evaluated: both initial methods and the own
+/// rig of up to 32 evenly spread pairs.
+fn candidate_rigs(left: &[Pose], right: &[Pose]) -> Vec<Pose> {
+    let mut rigs: Vec<Pose> = [RigInit::LeastSquares, RigInit::Median]
+        .into_iter()
+        .filter_map(|m| initial_rig(m, left, right))
+        .collect();
+    let step = left.len().div_ceil(32).max(1);
+    for k in (0..left.len()).step_by(step) {
+        let rotation = right[k].rotation * left[k].rotation.transpose();
+        rigs.push(Pose::new(
+            rotation,
+            right[k].translation - rotation * left[k].translation,
+        ));
+    }
+    rigs
+}
 
 /// The stereo calibration of the pairs `kept`.
 fn calibrate_pairs(
@@ -278,6 +305,26 @@ fn calibrate_pairs(
             o.suspected = Some(suspected);
         }
     }
+    // On weak captures (boards nearly facing the cameras, few pairs) the single-camera poses
+    // are loose, and the rig averaged from them can put board points behind the right camera
+    // or beyond its lens model's range: then start from the candidate rig (the other method,
+    // or one pair's own rig) with the lowest start error that every point can be evaluated at.
+    if options.rig_guess.is_none() && start_cost(&problem).is_none() {
+        let candidates = candidate_rigs(&left_single.frames, &right_single.frames);
+        if let Some(best) = candidates
+            .into_iter()
+            .filter_map(|rig| {
+                problem.rig[1] = rig;
+                start_cost(&problem).map(|c| (c, rig))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+        {
+            problem.rig[1] = best.1;
+        } else {
+            problem.rig[1] = rig0;
+        }
+    }
+    let rig0 = problem.rig[1];
     let mut solve = SolveOptions::default();
     solve.rotation = options.rotation;
     solve.solver = options.solver.clone();

@@ -77,7 +77,7 @@ pub enum StereoError {
     /// the right view's points are numbered differently from the left's (a board seen rotated
     /// by 180 degrees, corners reversed), or the two views are from different moments.
     #[error(
-        "{}: the rotation from the left to the right camera differs from the other pairs' by more than 10 degrees: are the right view's corners in the same order as the left's (not reversed or rotated), and are both views from the same moment?",
+        "{}: the rotation from the left to the right camera differs from the other pairs' by more than 30 degrees: are the right view's corners in the same order as the left's (not reversed or rotated), and are both views from the same moment?",
         .pairs.iter().map(|(p, a)| format!("pair {p} ({a:.0} deg)")).collect::<Vec<_>>().join(", ")
     )]
     MismatchedPairs {

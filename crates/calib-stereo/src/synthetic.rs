@@ -124,6 +124,54 @@ pub fn generate_stereo(
     })
 }
 
+/// A random stereo problem of the population users produce (issue 11): the left camera, board,
+/// views, tilt (5 to 60 degrees), noise and off-centre principal point of
+/// [`calib_core::synthetic::population`]; a right camera within 10% of the left's focal length,
+/// its own off-centre principal point and distortion; a rig rotated up to 5 degrees about each
+/// axis with a mostly horizontal baseline of 0.2 to 0.8 board widths.
+pub fn population(seed: u64) -> SyntheticStereoConfig {
+    let left = calib_core::synthetic::population(seed);
+    let mut rng = Rng::new(0x57E2_E000 + seed);
+    let k = left.intrinsics;
+    let (cx, cy) = left.image_size.centre();
+    let f = k.fx * rng.range(0.9, 1.1);
+    let right_intrinsics = Intrinsics::new(
+        f,
+        f * rng.range(0.98, 1.02),
+        cx + rng.range(-15.0, 15.0),
+        cy + rng.range(-15.0, 15.0),
+    );
+    let right_distortion = vec![
+        rng.range(-0.25, -0.15),
+        rng.range(-0.05, 0.1),
+        rng.range(-0.002, 0.002),
+        rng.range(-0.002, 0.002),
+    ];
+    let width = (left.board_cols - 1) as f64 * left.square;
+    let baseline = rng.range(0.2, 0.8) * width;
+    let angle = 5f64.to_radians();
+    let rig = Pose::new(
+        EulerXyz::matrix(&Vector3::new(
+            rng.range(-angle, angle),
+            rng.range(-angle, angle),
+            rng.range(-angle, angle),
+        )),
+        Vector3::new(
+            -baseline,
+            rng.range(-0.05, 0.05) * baseline,
+            rng.range(-0.05, 0.05) * baseline,
+        ),
+    );
+    SyntheticStereoConfig {
+        right_model: left.model,
+        right_image_size: left.image_size,
+        left,
+        right_intrinsics,
+        right_distortion,
+        rig,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
