@@ -162,20 +162,32 @@ impl<'a, R: RotationParameterization> JointCost<'a, R> {
         block: usize,
         params: &[&[f64]],
     ) -> Result<Vec<nalgebra::Vector2<f64>>, EvaluationError> {
+        let mut errors = Vec::new();
+        self.reprojection_errors_into(block, params, &mut errors)?;
+        Ok(errors)
+    }
+
+    /// [`JointCost::reprojection_errors`] into `errors` (cleared first; reuse it across calls).
+    pub fn reprojection_errors_into(
+        &self,
+        block: usize,
+        params: &[&[f64]],
+        errors: &mut Vec<nalgebra::Vector2<f64>>,
+    ) -> Result<(), EvaluationError> {
         let obs = &self.problem.observations[block];
         let spec = &self.problem.cameras[obs.camera];
         let layout = self.layouts[block];
         let (pose, rig) = self.poses(params, layout);
+        errors.clear();
         dispatch_camera_model!(spec.model(), D, P => {
             let camera = self.typed_camera::<D, P>(spec, params, layout);
-            let mut errors = Vec::with_capacity(obs.object.len());
             for (i, (x, m)) in obs.object.iter().zip(&obs.pixels).enumerate() {
                 let p = camera
                     .project_camera_point(&transform(&pose, rig.as_ref(), x))
                     .map_err(|_| not_visible(obs, i))?;
                 errors.push(p - m);
             }
-            Ok(errors)
+            Ok(())
         })
     }
 

@@ -217,22 +217,7 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
             .iter()
             .enumerate()
             .filter(|(_, o)| o.camera == c)
-            .map(|(i, _)| {
-                let (sum, n) = solution.residuals[i]
-                    .iter()
-                    .enumerate()
-                    .filter(|(p, _)| !solution.rejected[i].contains(p))
-                    .filter(|(p, _)| {
-                        problem.observations[i]
-                            .weights
-                            .as_ref()
-                            .is_none_or(|w| w[*p] > 0.0)
-                    })
-                    .fold((0.0, 0usize), |(s, n), (_, e)| {
-                        (s + e.norm_squared(), n + 1)
-                    });
-                (i, (sum / n.max(1) as f64).sqrt())
-            })
+            .map(|(i, _)| (i, solution.errors[i].rms()))
             .collect();
         if rms.len() >= 3 {
             let mut sorted: Vec<f64> = rms.iter().map(|r| r.1).collect();

@@ -32,7 +32,8 @@ pub const MIN_TILT_MEASURE: f64 = 1e-4;
 /// observable at all: the calibration is refused. Everything above is attempted; whether the data
 /// then determine the focal length is for the covariance to say (an error if it is singular, a
 /// warning if the focal length's uncertainty is large). The convergence sweep
-/// (`calib-single/tests/convergence.rs`) draws the largest tilt per problem down to 5 degrees.
+/// (`calib-single/tests/convergence_population.rs`) draws the largest tilt per problem down to 5
+/// degrees.
 pub const MIN_PERSPECTIVE: f64 = 1e-4;
 
 /// Initial intrinsics from the views' homographies (board plane to pixels, any scale): the
@@ -192,16 +193,14 @@ const SCORING_POINTS: usize = 100;
 /// `(max w - min w) / mean w`. It is about `tan(tilt) x board extent / distance`; zero for a
 /// board parallel to the image plane, where the view says nothing about the focal length.
 pub fn perspective_measure(h: &Matrix3<f64>, points: &[Point3<f64>]) -> f64 {
-    let w: Vec<f64> = points
-        .iter()
-        .map(|p| h[(2, 0)] * p.x + h[(2, 1)] * p.y + h[(2, 2)])
-        .collect();
-    let mean = w.iter().sum::<f64>() / w.len().max(1) as f64;
-    let (lo, hi) = w
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
+    let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
+    for p in points {
+        let w = h[(2, 0)] * p.x + h[(2, 1)] * p.y + h[(2, 2)];
+        sum += w;
+        lo = lo.min(w);
+        hi = hi.max(w);
+    }
+    let mean = sum / points.len().max(1) as f64;
     if mean.abs() > 0.0 && hi >= lo {
         (hi - lo) / mean.abs()
     } else {
@@ -285,6 +284,7 @@ pub fn focal_score(f: f64, cx: f64, cy: f64, camera: &ScoringCamera, views: &[Sc
     };
     let mut options = SolveOptions {
         compute_uncertainty: false,
+        outliers: None,
         ..SolveOptions::default()
     };
     options.solver.max_iterations = 50;
@@ -294,10 +294,9 @@ pub fn focal_score(f: f64, cx: f64, cy: f64, camera: &ScoringCamera, views: &[Sc
     match crate::solve::solve(&problem, &options) {
         Ok(solution) => {
             let (sum, n) = solution
-                .residuals
+                .errors
                 .iter()
-                .flatten()
-                .fold((0.0, 0usize), |(s, n), e| (s + e.norm_squared(), n + 1));
+                .fold((0.0, 0usize), |(s, n), e| (s + e.all_sum_sq, n + e.all));
             (sum / n.max(1) as f64).sqrt()
         }
         Err(_) => f64::INFINITY,

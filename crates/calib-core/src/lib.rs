@@ -38,7 +38,7 @@ pub use outliers::OutlierRejection;
 pub use problem::{CameraSpec, JointProblem, ObservationSpec, ProblemError};
 pub use result::{CameraEstimate, SkippedView, StageTimes, ViewResult};
 pub use single::{PreparedCamera, prepare_camera};
-pub use solve::{JointSolution, SolveOptions, reprojection_errors, solve};
+pub use solve::{JointSolution, ObservationErrors, SolveOptions, reprojection_errors, solve};
 pub use warnings::{Warning, WarningCode};
 
 pub use camera_model;

@@ -210,24 +210,18 @@ impl JointProblem {
     /// three sizes from the board origin. Ordinary boards (millimetres or metres, origin on the
     /// board) are solved as given, so their numbers do not change at all.
     pub fn board_normalization(&self) -> Option<BoardNormalization> {
-        let n: usize = self.observations.iter().map(|o| o.object.len()).sum();
+        // One pass: the centroid and the mean squared norm give the RMS spread.
+        let (mut n, mut sum, mut sum_sq) = (0usize, Vector3::zeros(), 0.0);
+        for p in self.observations.iter().flat_map(|o| o.object.iter()) {
+            n += 1;
+            sum += p.coords;
+            sum_sq += p.coords.norm_squared();
+        }
         if n == 0 {
             return None;
         }
-        let centre = self
-            .observations
-            .iter()
-            .flat_map(|o| o.object.iter())
-            .fold(Vector3::zeros(), |a, p| a + p.coords)
-            / n as f64;
-        let scale = (self
-            .observations
-            .iter()
-            .flat_map(|o| o.object.iter())
-            .map(|p| (p.coords - centre).norm_squared())
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
+        let centre = sum / n as f64;
+        let scale = (sum_sq / n as f64 - centre.norm_squared()).max(0.0).sqrt();
         let needed = !(0.01..=1e4).contains(&scale) || centre.norm() > 3.0 * scale;
         (needed && scale.is_finite() && scale > 0.0).then_some(BoardNormalization { centre, scale })
     }

@@ -401,7 +401,13 @@ impl PreparedCamera {
     }
 
     /// [`PreparedCamera::problem`], moving the observations instead of copying them.
-    pub fn into_problem(self, name: &str) -> JointProblem {
+    pub fn into_problem(mut self, name: &str) -> JointProblem {
+        self.take_problem(name)
+    }
+
+    /// [`PreparedCamera::problem`], moving the observations and initial poses out (they are
+    /// left empty) and keeping the rest of the preparation for the result.
+    pub fn take_problem(&mut self, name: &str) -> JointProblem {
         JointProblem {
             cameras: vec![self.camera_spec(name)],
             reference: 0,
@@ -412,8 +418,8 @@ impl PreparedCamera {
                 .iter()
                 .map(|(i, name)| format!("view {i} ({name})"))
                 .collect(),
-            frames: self.initial_poses,
-            observations: self.observations,
+            frames: std::mem::take(&mut self.initial_poses),
+            observations: std::mem::take(&mut self.observations),
         }
     }
 

@@ -76,8 +76,9 @@ pub struct JointSolution {
     pub frame_params: Vec<[f64; 6]>,
     /// Their standard deviations.
     pub frame_std: Vec<[f64; 6]>,
-    /// Per observation, per point: `projected - measured`, pixels (unweighted, every point).
-    pub residuals: Vec<Vec<Vector2<f64>>>,
+    /// Per observation, its reprojection error statistics at the solution (per-point errors:
+    /// [`reprojection_errors`] of [`JointProblem::with_solution`]).
+    pub errors: Vec<ObservationErrors>,
     /// The Levenberg-Marquardt report.
     pub report: SolverReport,
     /// `sum w |e|^2 / (2 n_used - p)`, pixels^2: the variance that scales the covariance.
@@ -95,6 +96,51 @@ pub struct JointSolution {
     pub initial_cost: f64,
     /// What deserves attention: the solver's iteration limit, rejected outliers.
     pub warnings: Vec<Warning>,
+    /// Per camera, the error norms of an evenly strided sample of the user-weighted points
+    /// (for the noise level; empty without outlier rejection).
+    pub(crate) noise_sample: Vec<Vec<f64>>,
+    /// `(observation, point, |e|)` of the user-weighted points whose error exceeds the outlier
+    /// floor: the only points rejection can pick (empty without outlier rejection).
+    pub(crate) outlier_candidates: Vec<(usize, usize, f64)>,
+}
+
+/// Reprojection error statistics of one observation at a solution, pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ObservationErrors {
+    /// Points used by the solve (positive weight, not rejected).
+    pub used: usize,
+    /// `sum |e|^2` over the used points.
+    pub sum_sq: f64,
+    /// `sum e` over the used points (x and y).
+    pub sum: Vector2<f64>,
+    /// `sum e_x^2`, `sum e_y^2` over the used points.
+    pub sum_sq_xy: Vector2<f64>,
+    /// Every point of the observation.
+    pub all: usize,
+    /// `sum |e|^2` over every point.
+    pub all_sum_sq: f64,
+}
+
+impl ObservationErrors {
+    /// RMS over the used points (0 without any).
+    pub fn rms(&self) -> f64 {
+        (self.sum_sq / self.used.max(1) as f64).sqrt()
+    }
+
+    /// RMS over every point.
+    pub fn rms_all(&self) -> f64 {
+        (self.all_sum_sq / self.all.max(1) as f64).sqrt()
+    }
+
+    /// Adds `other`'s sums to these.
+    pub fn add(&mut self, other: &ObservationErrors) {
+        self.used += other.used;
+        self.sum_sq += other.sum_sq;
+        self.sum += other.sum;
+        self.sum_sq_xy += other.sum_sq_xy;
+        self.all += other.all;
+        self.all_sum_sq += other.all_sum_sq;
+    }
 }
 
 impl JointSolution {
@@ -129,46 +175,42 @@ pub fn solve(
         .check()
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
     let Some(rejection) = options.outliers else {
-        let mut solution = solve_once(problem, options)?;
+        let mut solution = solve_once(problem, options, problem, None)?;
         solution.total_iterations = solution.report.iterations.len();
         add_solver_warnings(&mut solution);
         let camera = crate::diagnostics::camera_warnings(problem, &solution);
         solution.warnings.extend(camera);
         return Ok(solution);
     };
-    let mut rejected: Vec<Vec<bool>> = problem
+    let mut rejected: Vec<Vec<usize>> = problem
         .observations
         .iter()
         .map(|o| match &o.suspected {
-            Some(s) => s
-                .iter()
-                .enumerate()
-                .map(|(i, &s)| s && o.weights.as_ref().is_none_or(|w| w[i] > 0.0))
+            Some(s) => (0..s.len())
+                .filter(|&i| s[i] && o.weights.as_ref().is_none_or(|w| w[i] > 0.0))
                 .collect(),
-            None => vec![false; o.object.len()],
+            None => Vec::new(),
         })
         .collect();
+    let floor = Some(rejection.min_threshold_px);
     let mut warm: Option<JointProblem> = None;
     let mut total_iterations = 0;
     let mut initial_cost = None;
     let mut rounds = 0;
     loop {
         let base = warm.as_ref().unwrap_or(problem);
-        let mut solution = if rejected.iter().flatten().any(|&r| r) {
+        let mut solution = if rejected.iter().any(|r| !r.is_empty()) {
             let mut work = base.clone();
             outliers::apply(&mut work, &rejected);
-            solve_once(&work, options)?
+            solve_once(&work, options, problem, floor)?
         } else {
-            solve_once(base, options)?
+            solve_once(base, options, problem, floor)?
         };
         total_iterations += solution.report.iterations.len();
         let first_cost = *initial_cost.get_or_insert(solution.report.initial_cost);
-        let marked = outliers::mark(problem, &solution.residuals, &rejection);
+        let marked = outliers::mark(problem, &solution, &rejection);
         if marked == rejected || rounds == rejection.max_rounds {
-            solution.rejected = rejected
-                .iter()
-                .map(|r| (0..r.len()).filter(|&i| r[i]).collect())
-                .collect();
+            solution.rejected = rejected;
             solution.outlier_rounds = rounds;
             solution.total_iterations = total_iterations;
             solution.initial_cost = first_cost;
@@ -181,19 +223,22 @@ pub fn solve(
         check_view_fractions(problem, &marked, &rejection)?;
         rejected = marked;
         rounds += 1;
-        warm = Some(warm_started(problem, &solution));
+        warm = Some(problem.with_solution(&solution));
     }
 }
 
-/// `problem` with the start values replaced by `solution` (cameras, rig, frames).
-fn warm_started(problem: &JointProblem, solution: &JointSolution) -> JointProblem {
-    let mut p = problem.clone();
-    for (spec, camera) in p.cameras.iter_mut().zip(&solution.cameras) {
-        spec.initial = camera.clone();
+impl JointProblem {
+    /// This problem with its start values replaced by `solution`'s cameras, rig and frames: to
+    /// evaluate the solution ([`reprojection_errors`]) or to solve again from it.
+    pub fn with_solution(&self, solution: &JointSolution) -> JointProblem {
+        let mut p = self.clone();
+        for (spec, camera) in p.cameras.iter_mut().zip(&solution.cameras) {
+            spec.initial = camera.clone();
+        }
+        p.rig.clone_from(&solution.rig);
+        p.frames.clone_from(&solution.frames);
+        p
     }
-    p.rig.clone_from(&solution.rig);
-    p.frames.clone_from(&solution.frames);
-    p
 }
 
 /// Where observation `o` is, in user terms: its frame's name and, with several cameras, the
@@ -210,12 +255,12 @@ fn locate(problem: &JointProblem, o: usize) -> String {
 
 fn check_view_fractions(
     problem: &JointProblem,
-    rejected: &[Vec<bool>],
+    rejected: &[Vec<usize>],
     options: &OutlierRejection,
 ) -> Result<(), CalibrationError> {
     for (o, r) in rejected.iter().enumerate() {
         let points = problem.observations[o].num_used_points();
-        let count = r.iter().filter(|&&r| r).count();
+        let count = r.len();
         if count as f64 > options.max_view_fraction * points as f64 {
             return Err(CalibrationError::MostlyOutliers {
                 observation: o,
@@ -276,10 +321,14 @@ fn add_outlier_warning(
     ));
 }
 
-/// One solve of `problem` as given (weights as they are).
+/// One solve of `problem` as given (weights as they are). `user` is the problem with the user's
+/// weights (rejected points not zeroed) and `floor` the outlier floor, for the error statistics
+/// that outlier rejection reads.
 fn solve_once(
     problem: &JointProblem,
     options: &SolveOptions,
+    user: &JointProblem,
+    floor: Option<f64>,
 ) -> Result<JointSolution, CalibrationError> {
     let normalization = problem.board_normalization();
     let normalized;
@@ -291,9 +340,13 @@ fn solve_once(
         None => problem,
     };
     match options.rotation {
-        RotationKind::EulerXyz => solve_with::<EulerXyz>(target, options, normalization),
-        RotationKind::AxisAngle => solve_with::<AxisAngle>(target, options, normalization),
-        RotationKind::So3 => solve_with::<So3>(target, options, normalization),
+        RotationKind::EulerXyz => {
+            solve_with::<EulerXyz>(target, options, normalization, user, floor)
+        }
+        RotationKind::AxisAngle => {
+            solve_with::<AxisAngle>(target, options, normalization, user, floor)
+        }
+        RotationKind::So3 => solve_with::<So3>(target, options, normalization, user, floor),
     }
 }
 
@@ -543,6 +596,8 @@ fn solve_with<R: RotationParameterization>(
     problem: &JointProblem,
     options: &SolveOptions,
     normalization: Option<BoardNormalization>,
+    user: &JointProblem,
+    floor: Option<f64>,
 ) -> Result<JointSolution, CalibrationError> {
     let (lm, blocks) = build(problem, options)?;
     let used = problem.num_used_points();
@@ -658,20 +713,62 @@ fn solve_with<R: RotationParameterization>(
         frame_params.push(p);
         frame_std.push(std);
     }
-    let mut residuals = Vec::with_capacity(problem.observations.len());
+    // One streaming pass over the points (storing every error would cost more in fresh memory
+    // than computing it): per-observation sums, and for outlier rejection a strided sample of
+    // the error norms per camera and the points above the floor.
+    let n_cam = problem.cameras.len();
+    let mut per_camera = vec![0usize; n_cam];
+    for o in &problem.observations {
+        per_camera[o.camera] += o.object.len();
+    }
+    let strides: Vec<usize> = per_camera
+        .iter()
+        .map(|&n| n.div_ceil(outliers::MEDIAN_SAMPLE).max(1))
+        .collect();
+    let mut counters = vec![0usize; n_cam];
+    let mut noise_sample = vec![Vec::new(); if floor.is_some() { n_cam } else { 0 }];
+    let mut outlier_candidates = Vec::new();
+    let floor_sq = floor.map(|f| f * f);
+    let mut errors = Vec::with_capacity(problem.observations.len());
+    let mut buffer = Vec::new();
     let mut weighted = 0.0;
     for (i, o) in problem.observations.iter().enumerate() {
         let params: Vec<&[f64]> = lm
             .residual_blocks_of(lm_solver::ResidualBlockId(i))
             .map(|b| lm.block(&x, b))
             .collect();
-        let e = cost
-            .reprojection_errors(i, &params)
+        cost.reprojection_errors_into(i, &params, &mut buffer)
             .map_err(|e| CalibrationError::Diverged(e.message))?;
-        for (k, v) in e.iter().enumerate() {
-            weighted += o.weights.as_ref().map_or(1.0, |w| w[k]) * v.norm_squared();
+        let user_weights = user.observations[i].weights.as_deref();
+        let mut s = ObservationErrors::default();
+        for (k, e) in buffer.iter().enumerate() {
+            let sq = e.norm_squared();
+            s.all += 1;
+            s.all_sum_sq += sq;
+            let w = o.weights.as_ref().map_or(1.0, |w| w[k]);
+            if w > 0.0 {
+                s.used += 1;
+                s.sum_sq += sq;
+                s.sum += e;
+                s.sum_sq_xy += e.component_mul(e);
+                weighted += w * sq;
+            }
+            if let Some(floor_sq) = floor_sq
+                && user_weights.is_none_or(|w| w[k] > 0.0)
+            {
+                let c = o.camera;
+                if counters[c].is_multiple_of(strides[c]) {
+                    noise_sample[c].push(sq.sqrt());
+                }
+                counters[c] += 1;
+                // Not `sq > floor_sq`: a NaN error is a candidate too.
+                let below = sq <= floor_sq;
+                if !below {
+                    outlier_candidates.push((i, k, sq.sqrt()));
+                }
+            }
         }
-        residuals.push(e);
+        errors.push(s);
     }
     let initial_cost = report.initial_cost;
     let solution = JointSolution {
@@ -684,7 +781,7 @@ fn solve_with<R: RotationParameterization>(
         frames,
         frame_params,
         frame_std,
-        residuals,
+        errors,
         report,
         residual_variance: weighted / (used_rows - free) as f64,
         rotation: options.rotation,
@@ -693,6 +790,8 @@ fn solve_with<R: RotationParameterization>(
         total_iterations: 0,
         initial_cost,
         warnings: Vec::new(),
+        noise_sample,
+        outlier_candidates,
     };
     check_finite(&solution)?;
     Ok(solution)

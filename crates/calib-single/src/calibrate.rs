@@ -35,8 +35,8 @@ pub fn calibrate(
             .enumerate()
             .filter(|(i, _)| !dropped.iter().any(|d| d.index == *i))
             .collect();
-        let prepared = prepare_camera(&views, observations.image_size, options)?;
-        let problem = prepared.problem("camera");
+        let mut prepared = prepare_camera(&views, observations.image_size, options)?;
+        let problem = prepared.take_problem("camera");
         let solve_start = Instant::now();
         match calib_core::solve(&problem, &options.solve_options()) {
             Ok(solution) => break (prepared, solution, solve_start.elapsed()),
@@ -61,41 +61,26 @@ pub fn calibrate(
 
     let names = camera_param_names(options.model);
     let std = &solution.camera_std[0];
-    let (mut sum_sq, mut sum_x, mut sum_y, mut sum_xx, mut sum_yy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let (mut num_points, mut all_sq, mut all_points) = (0usize, 0.0, 0usize);
+    let mut total = calib_core::ObservationErrors::default();
     let mut views = Vec::with_capacity(prepared.views.len());
     for (k, (index, name)) in prepared.views.iter().enumerate() {
-        let errors: &[Vector2<f64>] = &solution.residuals[k];
-        let rejected = &solution.rejected[k];
-        let (mut view_sq, mut view_points) = (0.0, 0);
-        for (i, e) in errors.iter().enumerate() {
-            all_sq += e.norm_squared();
-            all_points += 1;
-            if rejected.contains(&i) {
-                continue;
-            }
-            view_sq += e.norm_squared();
-            view_points += 1;
-            sum_x += e.x;
-            sum_y += e.y;
-            sum_xx += e.x * e.x;
-            sum_yy += e.y * e.y;
-        }
-        sum_sq += view_sq;
-        num_points += view_points;
+        let errors = &solution.errors[k];
+        total.add(errors);
         views.push(ViewResult {
             index: *index,
             name: name.clone(),
             pose: solution.frames[k],
             pose_params: solution.frame_params[k],
             pose_std: solution.frame_std[k],
-            rms: (view_sq / view_points.max(1) as f64).sqrt(),
-            num_points: view_points,
-            rejected_points: rejected.clone(),
+            rms: errors.rms(),
+            num_points: errors.used,
+            rejected_points: solution.rejected[k].clone(),
         });
     }
+    let num_points = total.used;
     let np = num_points as f64;
     let sample_std = |s: f64, ss: f64| ((ss - s * s / np) / (np - 1.0).max(1.0)).max(0.0).sqrt();
+    let (sum, sum_sq) = (total.sum, total.sum_sq_xy);
     let (homographies, initialization) = prepared.times;
     let optimization = solution.report.total_time;
     let calibration = Calibration {
@@ -111,10 +96,10 @@ pub fn calibrate(
         rotation: options.rotation,
         views,
         skipped_views: skipped,
-        rms: (sum_sq / np).sqrt(),
-        rms_all_points: (all_sq / all_points as f64).sqrt(),
-        num_rejected: all_points - num_points,
-        residual_std: [sample_std(sum_x, sum_xx), sample_std(sum_y, sum_yy)],
+        rms: total.rms(),
+        rms_all_points: total.rms_all(),
+        num_rejected: solution.num_rejected(),
+        residual_std: [sample_std(sum.x, sum_sq.x), sample_std(sum.y, sum_sq.y)],
         residual_variance: solution.residual_variance,
         num_points,
         initial_intrinsics: prepared.initial.intrinsics,

@@ -568,32 +568,14 @@ fn assemble(
     rig0: Pose,
     times: [std::time::Duration; 3],
 ) -> Result<StereoCalibration, StereoError> {
-    // Sums over the used points (rejected outliers left out) and over all points.
-    let kept_sums: Vec<(f64, usize)> = solution
-        .residuals
-        .iter()
-        .zip(&solution.rejected)
-        .map(|(e, rejected)| {
-            e.iter()
-                .enumerate()
-                .filter(|(i, _)| !rejected.contains(i))
-                .fold((0.0, 0), |(s, n), (_, v)| (s + v.norm_squared(), n + 1))
-        })
-        .collect();
-    let all_squared: f64 = solution
-        .residuals
-        .iter()
-        .flatten()
-        .map(|v| v.norm_squared())
-        .sum();
-    let all_points: usize = solution.residuals.iter().map(Vec::len).sum();
     let estimate = |c: usize, name: &str| {
         let std = &solution.camera_std[c];
-        let (sum, n) = (0..kept_sums.len())
-            .filter(|&o| problem.observations[o].camera == c)
-            .fold((0.0, 0), |(s, n), o| {
-                (s + kept_sums[o].0, n + kept_sums[o].1)
-            });
+        let mut sums = calib_core::ObservationErrors::default();
+        for (o, e) in solution.errors.iter().enumerate() {
+            if problem.observations[o].camera == c {
+                sums.add(e);
+            }
+        }
         let spec = &problem.cameras[c];
         let names = camera_param_names(spec.model());
         CameraEstimate {
@@ -603,15 +585,14 @@ fn assemble(
             intrinsics_std: [std[0], std[1], std[2], std[3]],
             distortion_std: std[4..].to_vec(),
             fixed_parameters: spec.fixed.iter().map(|&i| names[i].to_string()).collect(),
-            rms: (sum / n.max(1) as f64).sqrt(),
-            num_points: n,
+            rms: sums.rms(),
+            num_points: sums.used,
         }
     };
     let (left, right) = (estimate(0, "left"), estimate(1, "right"));
     let rig = solution.rig[1];
     let essential = skew(&rig.translation) * rig.rotation;
     let fundamental = fundamental_matrix(&left.camera, &right.camera, &essential);
-    let rms_of = |(s, n): (f64, usize)| (s / n.max(1) as f64).sqrt();
     let pairs = kept
         .iter()
         .enumerate()
@@ -623,17 +604,18 @@ fn assemble(
                 left_pose: solution.frames[k],
                 pose_params: solution.frame_params[k],
                 pose_std: solution.frame_std[k],
-                rms_left: rms_of(kept_sums[2 * k]),
-                rms_right: rms_of(kept_sums[2 * k + 1]),
-                num_points: solution.residuals[2 * k].len(),
+                rms_left: solution.errors[2 * k].rms(),
+                rms_right: solution.errors[2 * k + 1].rms(),
+                num_points: solution.errors[2 * k].all,
                 rejected_left: solution.rejected[2 * k].clone(),
                 rejected_right: solution.rejected[2 * k + 1].clone(),
             }
         })
         .collect();
-    let (total_squared, total_points) = kept_sums
-        .iter()
-        .fold((0.0, 0), |(s, n), &(s2, n2)| (s + s2, n + n2));
+    let mut total = calib_core::ObservationErrors::default();
+    for e in &solution.errors {
+        total.add(e);
+    }
     let joint = solution.report.total_time;
     Ok(StereoCalibration {
         left,
@@ -645,15 +627,15 @@ fn assemble(
         essential,
         fundamental,
         baseline: rig.translation.norm(),
-        rms: (total_squared / total_points as f64).sqrt(),
-        rms_all_points: (all_squared / all_points as f64).sqrt(),
-        num_rejected: all_points - total_points,
+        rms: total.rms(),
+        rms_all_points: total.rms_all(),
+        num_rejected: solution.num_rejected(),
         pairs,
         skipped_pairs: Vec::new(),
         residual_variance: solution.residual_variance,
         initial_rig: rig0,
         initial_methods: [StartMethod::Given; 2],
-        initial_rms: (2.0 * solution.initial_cost / total_points as f64).sqrt(),
+        initial_rms: (2.0 * solution.initial_cost / total.used.max(1) as f64).sqrt(),
         warnings: solution.warnings,
         solver: solution.report,
         elapsed: std::time::Duration::ZERO,

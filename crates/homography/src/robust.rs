@@ -115,9 +115,14 @@ pub fn estimate_robust(
     let all = estimate(object, image, refine_options)?;
     {
         let e = &all;
-        let r = residuals(&e.h, object, image);
+        let mut r = residuals(&e.h, object, image);
         let max = r.iter().copied().fold(0.0, f64::max);
-        let med = median(&mut r.clone());
+        // Every residual under the pixel threshold: clean, no median needed.
+        let med = if max <= options.min_threshold_px {
+            0.0
+        } else {
+            median(&mut r)
+        };
         // A typical point off by more than the pixel threshold means the homography does not
         // describe the view at all (mismatched points), however uniform the residuals are.
         let clean = med <= options.min_threshold_px
