@@ -35,7 +35,9 @@ pub struct SynthStereoArgs {
     /// Right image size WIDTHxHEIGHT (default: the left one).
     #[arg(long)]
     pub right_image: Option<String>,
-    /// True rig: rotation vector and translation rx,ry,rz,tx,ty,tz (X_right = R X_left + T).
+    /// True rig: rotation vector and translation rx,ry,rz,tx,ty,tz (X_right = R X_left + T; board
+    /// units). Default: a 4-square baseline (100 for the default 25 mm squares) and a 1.3 degree
+    /// rotation.
     #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ")]
     pub rig: Option<String>,
 }
@@ -200,7 +202,11 @@ fn stereo_config(args: &SynthStereoArgs) -> Result<SyntheticStereoConfig, Failur
                 Vector3::new(v[3], v[4], v[5]),
             )
         }
-        None => defaults.rig,
+        // The default baseline is in squares, so a board in other units gives the same rig.
+        None => Pose::new(
+            defaults.rig.rotation,
+            defaults.rig.translation * (left.square / defaults.left.square),
+        ),
     };
     Ok(SyntheticStereoConfig {
         left,
