@@ -1,0 +1,219 @@
+//! The detection pipeline: search for a grid, label it, refine, verify.
+
+use crate::candidates;
+use crate::gray::{GrayView, ImageF};
+use crate::grid::{self, GrowParams, P};
+use crate::label;
+use crate::refine::{self, SaddleFit};
+use crate::{Board, DetectError, DetectOptions, Detection, Refinement};
+
+/// Smallest side, in pixels, of an image that can be searched.
+pub(crate) const MIN_SIDE: usize = 16;
+
+pub(crate) fn check_size(width: u64, height: u64, opts: &DetectOptions) -> Result<(), DetectError> {
+    if width.saturating_mul(height) > opts.max_pixels {
+        return Err(DetectError::ImageTooLarge {
+            width,
+            height,
+            limit: opts.max_pixels,
+        });
+    }
+    if width < MIN_SIDE as u64 || height < MIN_SIDE as u64 {
+        return Err(DetectError::ImageTooSmall { width, height });
+    }
+    Ok(())
+}
+
+pub(crate) fn run(
+    view: &GrayView<'_>,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    board.validate()?;
+    let (w, h) = (view.width(), view.height());
+    check_size(w as u64, h as u64, opts)?;
+    // Search on an image of at most `search_max_pixels` (integer box downscale).
+    let mut f = 1usize;
+    while ((w / f) as u64) * ((h / f) as u64) > opts.search_max_pixels.max(1024) {
+        f += 1;
+    }
+    let full = ImageF::from_view(view);
+    let search_owned;
+    let search = if f == 1 {
+        &full
+    } else {
+        search_owned = ImageF::from_view_downscaled(view, f);
+        &search_owned
+    };
+    let (cols, rows) = (board.cols, board.rows);
+    let n = cols * rows;
+    let params = GrowParams {
+        tol: 0.3,
+        max_seeds: 40,
+        max_side: cols.max(rows) + 1,
+        target: n,
+    };
+    let mut best_err = DetectError::NoBoard;
+    let mut best_count = 0usize;
+    for &sigma in &opts.search_blurs {
+        let blur = search.blurred(sigma);
+        let ring = (1.6 * sigma).max(2.5);
+        let cands = candidates::find(&blur, ring, 4000);
+        let grids = grid::find_grids(&cands, &blur, &params);
+        for g in grids {
+            match complete_grid(g, &blur, ring, board) {
+                Ok(pts) => {
+                    let scale = f as f64;
+                    let off = (scale - 1.0) / 2.0;
+                    let pts: Vec<P> = pts
+                        .iter()
+                        .map(|p| [p[0] * scale + off, p[1] * scale + off])
+                        .collect();
+                    return finish(&full, pts, board, opts);
+                }
+                Err((e, count)) => {
+                    // Keep the most informative failure: the one with the most corners.
+                    if count > best_count || matches!(best_err, DetectError::NoBoard) {
+                        best_count = count;
+                        best_err = e;
+                    }
+                }
+            }
+        }
+    }
+    Err(best_err)
+}
+
+/// Checks the grid size, fills and verifies missing corners, labels. On failure returns the
+/// reason and the number of corners the grid had.
+fn complete_grid(
+    mut g: grid::Grid,
+    blur: &ImageF,
+    ring: f64,
+    board: &Board,
+) -> Result<Vec<P>, (DetectError, usize)> {
+    let (cols, rows) = (board.cols, board.rows);
+    let count = g.count();
+    let fits = |a: usize, b: usize| (a <= cols && b <= rows) || (a <= rows && b <= cols);
+    if !fits(g.nu, g.nv) {
+        return Err((
+            DetectError::SizeMismatch {
+                found_cols: g.nu,
+                found_rows: g.nv,
+                cols,
+                rows,
+            },
+            count,
+        ));
+    }
+    let partial = |g: &grid::Grid| {
+        let (fc, fr) = if g.nu <= cols && g.nv <= rows {
+            (g.nu, g.nv)
+        } else {
+            (g.nv, g.nu)
+        };
+        DetectError::PartialBoard {
+            found_cols: fc,
+            found_rows: fr,
+            cols,
+            rows,
+        }
+    };
+    let full = (g.nu == cols && g.nv == rows) || (g.nu == rows && g.nv == cols);
+    if !full {
+        return Err((partial(&g), count));
+    }
+    if count < g.nu * g.nv {
+        // Corners the candidate search missed: predict, refine, and demand an X-junction.
+        let missing: Vec<usize> = (0..g.pts.len()).filter(|&i| g.pts[i].is_none()).collect();
+        if !grid::predict_missing(&mut g) {
+            return Err((partial(&g), count));
+        }
+        let fit = SaddleFit::new(2, 1.5);
+        for i in missing {
+            let p = g.pts[i].unwrap_or([0.0, 0.0]);
+            match fit.refine(blur, p) {
+                Some(q) if candidates::ring_test(blur, q[0], q[1], ring) => g.pts[i] = Some(q),
+                _ => {
+                    return Err((
+                        DetectError::PartialBoard {
+                            found_cols: cols,
+                            found_rows: rows,
+                            cols,
+                            rows,
+                        },
+                        count,
+                    ));
+                }
+            }
+        }
+    }
+    label::label(&g, cols, rows, blur, 1.0).map_err(|e| (e, count))
+}
+
+/// Per-corner spacing: distance to the nearest row or column neighbour.
+fn spacings(pts: &[P], cols: usize, rows: usize) -> Vec<f64> {
+    let d = |a: P, b: P| (a[0] - b[0]).hypot(a[1] - b[1]);
+    (0..rows * cols)
+        .map(|i| {
+            let (c, r) = (i % cols, i / cols);
+            let mut m = f64::MAX;
+            if c > 0 {
+                m = m.min(d(pts[i], pts[i - 1]));
+            }
+            if c + 1 < cols {
+                m = m.min(d(pts[i], pts[i + 1]));
+            }
+            if r > 0 {
+                m = m.min(d(pts[i], pts[i - cols]));
+            }
+            if r + 1 < rows {
+                m = m.min(d(pts[i], pts[i + cols]));
+            }
+            m
+        })
+        .collect()
+}
+
+fn finish(
+    full: &ImageF,
+    mut pts: Vec<P>,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    let (cols, rows) = (board.cols, board.rows);
+    let sp = spacings(&pts, cols, rows);
+    match opts.refinement {
+        Refinement::None => {}
+        Refinement::Gradient {
+            window,
+            max_half_window,
+        } => {
+            for (p, &s) in pts.iter_mut().zip(&sp) {
+                let hw = ((window * s).round() as usize).clamp(2, max_half_window.max(2));
+                if let Some(q) = refine::gradient(full, *p, hw, hw as f64 * 0.7) {
+                    *p = q;
+                }
+            }
+        }
+        Refinement::Saddle { blur, window } => {
+            let mut sorted = sp.clone();
+            sorted.sort_by(f64::total_cmp);
+            let med = sorted[sorted.len() / 2];
+            let sigma = (blur * med).clamp(0.7, 6.0);
+            let img = full.blurred(sigma);
+            let r = ((window * med).round() as usize).clamp(2, 15);
+            let fit = SaddleFit::new(r, r as f64 * 0.6);
+            for p in pts.iter_mut() {
+                if let Some(q) = fit.refine(&img, *p) {
+                    *p = q;
+                }
+            }
+        }
+    }
+    label::check_consistency(&pts, cols, rows, opts.max_grid_deviation, 1.0)?;
+    Ok(Detection {
+        corners: pts,
+        image_size: [full.w, full.h],
+    })
+}

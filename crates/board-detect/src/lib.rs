@@ -1,0 +1,154 @@
+//! Chessboard corner detection for camera calibration.
+//!
+//! Image in, labelled sub-pixel chessboard corners out, or a typed [`DetectError`] saying why
+//! not. See `docs/board-detect.md` for the method and its measured accuracy.
+#![deny(missing_docs)]
+
+mod candidates;
+mod detect;
+mod error;
+mod gray;
+mod grid;
+mod label;
+mod refine;
+
+pub use error::DetectError;
+pub use gray::GrayView;
+
+/// A chessboard, described by its inner corners: `cols` corners per row, `rows` per column
+/// (a 9x6 board has 10x7 squares). Corner `(c, r)` has object point `(c * square, r * square, 0)`
+/// and index `r * cols + c` (row-major).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Board {
+    /// Inner corners per row (along the board's X axis), at least 2.
+    pub cols: usize,
+    /// Inner corners per column (along the board's Y axis), at least 2.
+    pub rows: usize,
+    /// Side of a square, in the user's unit (mm, m, or 1.0 for "squares").
+    pub square: f64,
+}
+
+impl Board {
+    /// A board of `cols x rows` inner corners with squares of side `square`.
+    pub fn new(cols: usize, rows: usize, square: f64) -> Result<Self, DetectError> {
+        let b = Self { cols, rows, square };
+        b.validate()?;
+        Ok(b)
+    }
+
+    pub(crate) fn validate(&self) -> Result<(), DetectError> {
+        if self.cols < 3 || self.rows < 3 {
+            return Err(DetectError::InvalidBoard(format!(
+                "{}x{} inner corners: at least 3 per side are needed",
+                self.cols, self.rows
+            )));
+        }
+        if self.cols > 1000 || self.rows > 1000 {
+            return Err(DetectError::InvalidBoard(format!(
+                "{}x{} inner corners is too many",
+                self.cols, self.rows
+            )));
+        }
+        if !(self.square.is_finite() && self.square > 0.0) {
+            return Err(DetectError::InvalidBoard(format!(
+                "square size {} is not positive",
+                self.square
+            )));
+        }
+        Ok(())
+    }
+
+    /// Object points `(c * square, r * square, 0)`, row-major.
+    pub fn object_points(&self) -> Vec<[f64; 3]> {
+        (0..self.rows)
+            .flat_map(|r| {
+                (0..self.cols).map(move |c| [c as f64 * self.square, r as f64 * self.square, 0.0])
+            })
+            .collect()
+    }
+}
+
+/// How corners are refined to sub-pixel accuracy after the grid is found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum Refinement {
+    /// No refinement: the saddle positions of the search (about 0.1-0.3 px accuracy).
+    None,
+    /// Gradient orthogonality (the principle of OpenCV's `cornerSubPix`) with a half-window of
+    /// `window` times the corner's distance to its nearest grid neighbour, rounded, clamped to
+    /// `2..=max_half_window` pixels.
+    Gradient {
+        /// Half-window as a fraction of the local corner spacing.
+        window: f64,
+        /// Largest half-window in pixels.
+        max_half_window: usize,
+    },
+    /// Saddle point of a quadratic fitted to the image blurred with standard deviation
+    /// `blur` times the median corner spacing, over a window of half-size `window` times the
+    /// median spacing.
+    Saddle {
+        /// Blur as a fraction of the median spacing.
+        blur: f64,
+        /// Fit half-window as a fraction of the median spacing.
+        window: f64,
+    },
+}
+
+/// Options of [`detect`]. `Default` gives the measured best choices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectOptions {
+    /// Largest image accepted, in pixels (`width * height`); larger ones fail with
+    /// [`DetectError::ImageTooLarge`] before their pixels are decoded. Default 100 million.
+    pub max_pixels: u64,
+    /// The grid search runs on a copy downscaled by the smallest integer factor that brings
+    /// it to at most this many pixels (refinement always uses full resolution). Default 2
+    /// million, so search time is bounded whatever the image size.
+    pub search_max_pixels: u64,
+    /// Blurs (standard deviation in search-image pixels) tried in turn for the corner search.
+    pub search_blurs: Vec<f64>,
+    /// Sub-pixel refinement.
+    pub refinement: Refinement,
+    /// Verification: largest distance of a corner from the crossing of the lines through its
+    /// row and column neighbours, as a fraction of its spacing (but at least 1 px).
+    pub max_grid_deviation: f64,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            max_pixels: 100_000_000,
+            search_max_pixels: 2_000_000,
+            search_blurs: vec![1.5, 1.0, 2.5],
+            refinement: Refinement::Gradient {
+                window: 0.25,
+                max_half_window: 12,
+            },
+            max_grid_deviation: 0.15,
+        }
+    }
+}
+
+/// A detected board.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// Corner pixel positions, row-major (`index = r * cols + c`), OpenCV convention: the
+    /// centre of the top-left pixel is `(0, 0)`, `x` right, `y` down.
+    pub corners: Vec<[f64; 2]>,
+    /// Image `[width, height]` in pixels.
+    pub image_size: [usize; 2],
+}
+
+/// Detects `board` in a grayscale image buffer.
+pub fn detect(
+    image: &GrayView<'_>,
+    board: &Board,
+    options: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    detect::run(image, board, options)
+}
+
+mod io;
+pub use io::{
+    ImageResult, decode_gray, detect_file, detect_files, detect_image, load_gray,
+    observations_json, stereo_observations_json,
+};
