@@ -25,26 +25,29 @@ pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate>
         return Vec::new();
     }
     let mut resp = vec![0f32; w * h];
-    let mut rmax = 0f32;
     let d = &blur.data;
+    // Row by row over shifted slices, branch-free, so that the loop vectorizes.
     for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let i = y * w + x;
-            let c = d[i];
-            let ixx = d[i + 1] - 2.0 * c + d[i - 1];
-            let iyy = d[i + w] - 2.0 * c + d[i - w];
-            let ixy = 0.25 * (d[i + w + 1] - d[i + w - 1] - d[i - w + 1] + d[i - w - 1]);
-            let r = ixy * ixy - ixx * iyy;
-            if r > 0.0 {
-                resp[i] = r;
-                rmax = rmax.max(r);
-            }
+        let (up, mid, dn) = (
+            &d[(y - 1) * w..y * w],
+            &d[y * w..(y + 1) * w],
+            &d[(y + 1) * w..(y + 2) * w],
+        );
+        let out = &mut resp[y * w + 1..(y + 1) * w - 1];
+        for (x, o) in out.iter_mut().enumerate() {
+            let c = mid[x + 1];
+            let ixx = mid[x + 2] - 2.0 * c + mid[x];
+            let iyy = dn[x + 1] - 2.0 * c + up[x + 1];
+            let ixy = 0.25 * (dn[x + 2] - dn[x] - up[x + 2] + up[x]);
+            *o = (ixy * ixy - ixx * iyy).max(0.0);
         }
     }
+    let rmax = resp.iter().fold(0f32, |m, &r| m.max(r));
     if rmax <= 0.0 {
         return Vec::new();
     }
     let thr = 0.01 * rmax;
+    let circle = unit_circle();
     let border = (ring.ceil() as usize + 2).max(3);
     let mut out = Vec::new();
     if w <= 2 * border || h <= 2 * border {
@@ -54,7 +57,7 @@ pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate>
         let row = &resp[y * w..(y + 1) * w];
         for x in border..w - border {
             let r = row[x];
-            if r <= thr {
+            if r <= thr || r < row[x - 1] || r < row[x + 1] {
                 continue;
             }
             // Strict maximum in the 5x5 neighbourhood (ties broken by position).
@@ -95,7 +98,7 @@ pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate>
                 }
             }
             let (px, py) = (x as f64 + ox, y as f64 + oy);
-            if ring_test(blur, px, py, ring) {
+            if ring_test_with(blur, px, py, ring, &circle) {
                 out.push(Candidate {
                     x: px,
                     y: py,
@@ -116,10 +119,22 @@ const RING_SAMPLES: usize = 24;
 /// alternating, each sector at least two samples long, with the bright-dark contrast above
 /// 8 grey levels. Also requires that opposite sectors have the same colour.
 pub(crate) fn ring_test(img: &ImageF, x: f64, y: f64, r: f64) -> bool {
-    let mut v = [0f32; RING_SAMPLES];
-    for (k, s) in v.iter_mut().enumerate() {
+    ring_test_with(img, x, y, r, &unit_circle())
+}
+
+fn unit_circle() -> [[f64; 2]; RING_SAMPLES] {
+    let mut c = [[0.0; 2]; RING_SAMPLES];
+    for (k, p) in c.iter_mut().enumerate() {
         let a = k as f64 * std::f64::consts::TAU / RING_SAMPLES as f64;
-        *s = img.sample(x + r * a.cos(), y + r * a.sin());
+        *p = [a.cos(), a.sin()];
+    }
+    c
+}
+
+fn ring_test_with(img: &ImageF, x: f64, y: f64, r: f64, circle: &[[f64; 2]; RING_SAMPLES]) -> bool {
+    let mut v = [0f32; RING_SAMPLES];
+    for (s, c) in v.iter_mut().zip(circle) {
+        *s = img.sample(x + r * c[0], y + r * c[1]);
     }
     let (mut lo, mut hi) = (f32::MAX, f32::MIN);
     for &s in &v {

@@ -38,13 +38,6 @@ pub(crate) fn run(
         f += 1;
     }
     let full = ImageF::from_view(view);
-    let search_owned;
-    let search = if f == 1 {
-        &full
-    } else {
-        search_owned = ImageF::from_view_downscaled(view, f);
-        &search_owned
-    };
     let (cols, rows) = (board.cols, board.rows);
     let n = cols * rows;
     let params = GrowParams {
@@ -55,15 +48,50 @@ pub(crate) fn run(
     };
     let mut best_err = DetectError::NoBoard;
     let mut best_count = 0usize;
-    for &sigma in &opts.search_blurs {
+    let mut levels: Vec<(usize, ImageF)> = Vec::new();
+    for level in &opts.search_levels {
+        let ff = f * level.downscale.max(1);
+        if (w / ff).min(h / ff) < level.min_side.max(MIN_SIDE) {
+            continue;
+        }
+        let sigma = level.blur;
+        let t0 = std::time::Instant::now();
+        let search: &ImageF = if ff == 1 {
+            &full
+        } else {
+            if !levels.iter().any(|(k, _)| *k == ff) {
+                levels.push((ff, ImageF::from_view_downscaled(view, ff)));
+            }
+            levels
+                .iter()
+                .find(|(k, _)| *k == ff)
+                .map(|(_, im)| im)
+                .unwrap_or(&full)
+        };
         let blur = search.blurred(sigma);
+        let t1 = std::time::Instant::now();
         let ring = (1.6 * sigma).max(2.5);
         let cands = candidates::find(&blur, ring, 4000);
+        let t2 = std::time::Instant::now();
         let grids = grid::find_grids(&cands, &blur, &params);
+        let t3 = std::time::Instant::now();
+        if std::env::var_os("BD_TRACE").is_some() {
+            eprintln!(
+                "sigma {sigma} blur {:?} cands {} {:?} grids {:?} sizes {:?}",
+                t1 - t0,
+                cands.len(),
+                t2 - t1,
+                t3 - t2,
+                grids
+                    .iter()
+                    .map(|g| (g.nu, g.nv, g.count()))
+                    .collect::<Vec<_>>()
+            );
+        }
         for g in grids {
             match complete_grid(g, &blur, ring, board) {
                 Ok(pts) => {
-                    let scale = f as f64;
+                    let scale = ff as f64;
                     let off = (scale - 1.0) / 2.0;
                     let pts: Vec<P> = pts
                         .iter()
@@ -201,12 +229,26 @@ fn finish(
             sorted.sort_by(f64::total_cmp);
             let med = sorted[sorted.len() / 2];
             let sigma = (blur * med).clamp(0.7, 6.0);
-            let img = full.blurred(sigma);
             let r = ((window * med).round() as usize).clamp(2, 15);
+            // Blur only the board's bounding box (with room for the fit and the kernel).
+            let margin = (r as f64 + 3.0 * sigma + 4.0).ceil();
+            let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+            for p in &pts {
+                x0 = x0.min(p[0]);
+                y0 = y0.min(p[1]);
+                x1 = x1.max(p[0]);
+                y1 = y1.max(p[1]);
+            }
+            let cx0 = (x0 - margin).max(0.0) as usize;
+            let cy0 = (y0 - margin).max(0.0) as usize;
+            let cx1 = ((x1 + margin).max(0.0) as usize + 1).min(full.w);
+            let cy1 = ((y1 + margin).max(0.0) as usize + 1).min(full.h);
+            let img = full.crop(cx0, cy0, cx1, cy1).blurred(sigma);
             let fit = SaddleFit::new(r, r as f64 * 0.6);
+            let (ox, oy) = (cx0 as f64, cy0 as f64);
             for p in pts.iter_mut() {
-                if let Some(q) = fit.refine(&img, *p) {
-                    *p = q;
+                if let Some(q) = fit.refine(&img, [p[0] - ox, p[1] - oy]) {
+                    *p = [q[0] + ox, q[1] + oy];
                 }
             }
         }

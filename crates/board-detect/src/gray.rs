@@ -113,6 +113,21 @@ impl ImageF {
         Self { w, h, data }
     }
 
+    /// The sub-image `[x0, x1) x [y0, y1)` (clamped to the image).
+    pub fn crop(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> ImageF {
+        let (x1, y1) = (x1.min(self.w), y1.min(self.h));
+        let (x0, y0) = (x0.min(x1.saturating_sub(1)), y0.min(y1.saturating_sub(1)));
+        let mut data = Vec::with_capacity((x1 - x0) * (y1 - y0));
+        for y in y0..y1 {
+            data.extend_from_slice(&self.data[y * self.w + x0..y * self.w + x1]);
+        }
+        ImageF {
+            w: x1 - x0,
+            h: y1 - y0,
+            data,
+        }
+    }
+
     #[inline]
     pub fn at(&self, x: usize, y: usize) -> f32 {
         self.data[y * self.w + x]
@@ -152,28 +167,30 @@ impl ImageF {
         let s: f32 = k.iter().sum();
         k.iter_mut().for_each(|v| *v /= s);
         let (w, h) = (self.w, self.h);
-        // Horizontal pass into tmp.
+        // Vertical pass first: every output row is a weighted sum of whole input rows, a
+        // loop the compiler vectorizes.
         let mut tmp = vec![0f32; w * h];
+        for y in 0..h {
+            let out = &mut tmp[y * w..(y + 1) * w];
+            for (i, &kv) in k.iter().enumerate() {
+                let yy = (y as isize + i as isize - r as isize).clamp(0, h as isize - 1) as usize;
+                let src = &self.data[yy * w..(yy + 1) * w];
+                for (o, s) in out.iter_mut().zip(src) {
+                    *o += kv * s;
+                }
+            }
+        }
+        // Horizontal pass on a border-padded copy of each row, as shifted weighted sums.
+        let mut data = vec![0f32; w * h];
         let mut padded = vec![0f32; w + 2 * r];
         for y in 0..h {
-            let row = &self.data[y * w..(y + 1) * w];
+            let row = &tmp[y * w..(y + 1) * w];
             padded[..r].fill(row[0]);
             padded[r..r + w].copy_from_slice(row);
             padded[r + w..].fill(row[w - 1]);
-            let out = &mut tmp[y * w..(y + 1) * w];
-            for (x, o) in out.iter_mut().enumerate() {
-                let win = &padded[x..x + 2 * r + 1];
-                *o = win.iter().zip(&k).map(|(a, b)| a * b).sum();
-            }
-        }
-        // Vertical pass, row by row with accumulation for cache friendliness.
-        let mut data = vec![0f32; w * h];
-        for y in 0..h {
             let out = &mut data[y * w..(y + 1) * w];
             for (i, &kv) in k.iter().enumerate() {
-                let yy = (y as isize + i as isize - r as isize).clamp(0, h as isize - 1) as usize;
-                let src = &tmp[yy * w..(yy + 1) * w];
-                for (o, s) in out.iter_mut().zip(src) {
+                for (o, s) in out.iter_mut().zip(&padded[i..i + w]) {
                     *o += kv * s;
                 }
             }

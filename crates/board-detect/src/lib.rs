@@ -104,8 +104,9 @@ pub struct DetectOptions {
     /// it to at most this many pixels (refinement always uses full resolution). Default 2
     /// million, so search time is bounded whatever the image size.
     pub search_max_pixels: u64,
-    /// Blurs (standard deviation in search-image pixels) tried in turn for the corner search.
-    pub search_blurs: Vec<f64>,
+    /// Search attempts, tried in turn until one finds the board. Coarse levels first: they
+    /// are cheap and find boards with large squares; finer ones find small squares.
+    pub search_levels: Vec<SearchLevel>,
     /// Sub-pixel refinement.
     pub refinement: Refinement,
     /// Verification: largest distance of a corner from the crossing of the lines through its
@@ -118,7 +119,28 @@ impl Default for DetectOptions {
         Self {
             max_pixels: 100_000_000,
             search_max_pixels: 2_000_000,
-            search_blurs: vec![1.5, 1.0, 2.5],
+            search_levels: vec![
+                SearchLevel {
+                    downscale: 2,
+                    blur: 1.0,
+                    min_side: 120,
+                },
+                SearchLevel {
+                    downscale: 1,
+                    blur: 1.5,
+                    min_side: 0,
+                },
+                SearchLevel {
+                    downscale: 1,
+                    blur: 1.0,
+                    min_side: 0,
+                },
+                SearchLevel {
+                    downscale: 1,
+                    blur: 2.5,
+                    min_side: 0,
+                },
+            ],
             refinement: Refinement::Gradient {
                 window: 0.25,
                 max_half_window: 12,
@@ -126,6 +148,19 @@ impl Default for DetectOptions {
             max_grid_deviation: 0.15,
         }
     }
+}
+
+/// One attempt of the corner search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SearchLevel {
+    /// Extra integer downscale on top of the one that enforces
+    /// [`DetectOptions::search_max_pixels`] (1: none).
+    pub downscale: usize,
+    /// Gaussian blur before the saddle search, standard deviation in pixels of the
+    /// downscaled image.
+    pub blur: f64,
+    /// Skip this level when the downscaled image's smaller side is below this many pixels.
+    pub min_side: usize,
 }
 
 /// A detected board.
