@@ -36,9 +36,15 @@ fn main() {
                     "saddle" => Refinement::Saddle {
                         blur: s[1].parse().unwrap(),
                         window: s[2].parse().unwrap(),
+                        max_blur: s.get(3).map_or(6.0, |v| v.parse().unwrap()),
+                        max_window: s.get(4).map_or(15, |v| v.parse().unwrap()),
                     },
                     other => panic!("unknown refinement {other}"),
                 };
+                i += 1;
+            }
+            "--warp" => {
+                opts.joint_warp_degree = Some(args[i + 1].parse().unwrap());
                 i += 1;
             }
             "--threads" => {

@@ -134,18 +134,9 @@ fn complete_grid(
             count,
         ));
     }
-    let partial = |g: &grid::Grid| {
-        let (fc, fr) = if g.nu <= cols && g.nv <= rows {
-            (g.nu, g.nv)
-        } else {
-            (g.nv, g.nu)
-        };
-        DetectError::PartialBoard {
-            found_cols: fc,
-            found_rows: fr,
-            cols,
-            rows,
-        }
+    let partial = |g: &grid::Grid| DetectError::PartialBoard {
+        found: g.count(),
+        expected: cols * rows,
     };
     let full = (g.nu == cols && g.nv == rows) || (g.nu == rows && g.nv == cols);
     if !full {
@@ -162,13 +153,18 @@ fn complete_grid(
             let p = g.pts[i].unwrap_or([0.0, 0.0]);
             match fit.refine(blur, p) {
                 Some(q) if candidates::ring_test(blur, q[0], q[1], ring) => g.pts[i] = Some(q),
-                _ => {
+                other => {
+                    if std::env::var_os("BD_TRACE").is_some() {
+                        eprintln!(
+                            "fill {i} ({}, {}) at {p:?} -> {other:?}",
+                            i % g.nu,
+                            i / g.nu
+                        );
+                    }
                     return Err((
                         DetectError::PartialBoard {
-                            found_cols: cols,
-                            found_rows: rows,
-                            cols,
-                            rows,
+                            found: count,
+                            expected: cols * rows,
                         },
                         count,
                     ));
@@ -224,12 +220,17 @@ fn finish(
                 }
             }
         }
-        Refinement::Saddle { blur, window } => {
+        Refinement::Saddle {
+            blur,
+            window,
+            max_blur,
+            max_window,
+        } => {
             let mut sorted = sp.clone();
             sorted.sort_by(f64::total_cmp);
             let med = sorted[sorted.len() / 2];
-            let sigma = (blur * med).clamp(0.7, 6.0);
-            let r = ((window * med).round() as usize).clamp(2, 15);
+            let sigma = (blur * med).clamp(0.7, max_blur.max(0.7));
+            let r = ((window * med).round() as usize).clamp(2, max_window.max(2));
             // Blur only the board's bounding box (with room for the fit and the kernel).
             let margin = (r as f64 + 3.0 * sigma + 4.0).ceil();
             let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
@@ -254,8 +255,15 @@ fn finish(
         }
     }
     label::check_consistency(&pts, cols, rows, opts.max_grid_deviation, 1.0)?;
+    if let Some(d) = opts.joint_warp_degree {
+        if let Some(q) = crate::warp::smooth(&pts, cols, rows, d) {
+            pts = q;
+        }
+    }
+    let homography_rms = crate::warp::homography_fit(&pts, cols).map_or(f64::NAN, |(_, rms)| rms);
     Ok(Detection {
         corners: pts,
         image_size: [full.w, full.h],
+        homography_rms,
     })
 }

@@ -60,18 +60,14 @@ pub enum DetectError {
     #[error("no board found")]
     NoBoard,
 
-    /// A corner grid was found but it is smaller than the board: part of the board is
+    /// A corner grid was found but not all of the board's corners: part of the board is
     /// hidden, out of the image or too blurred.
-    #[error("partial board: found a {found_cols}x{found_rows} corner grid, expected {cols}x{rows}")]
+    #[error("partial board: {found} of {expected} corners found")]
     PartialBoard {
-        /// Corners found along the grid direction matched to the board's columns.
-        found_cols: usize,
-        /// Corners found along the other grid direction.
-        found_rows: usize,
-        /// Expected inner corners per row.
-        cols: usize,
-        /// Expected inner corners per column.
-        rows: usize,
+        /// Corners found (in the largest grid).
+        found: usize,
+        /// Corners of the board (`cols * rows`).
+        expected: usize,
     },
 
     /// The corner grid found is larger than the board in some direction, so it is a

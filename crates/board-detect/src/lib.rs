@@ -11,6 +11,7 @@ mod gray;
 mod grid;
 mod label;
 mod refine;
+mod warp;
 
 pub use error::DetectError;
 pub use gray::GrayView;
@@ -84,13 +85,18 @@ pub enum Refinement {
         max_half_window: usize,
     },
     /// Saddle point of a quadratic fitted to the image blurred with standard deviation
-    /// `blur` times the median corner spacing, over a window of half-size `window` times the
-    /// median spacing.
+    /// `blur` times the median corner spacing (clamped to `0.7..=max_blur` pixels), over a
+    /// window of half-size `window` times the median spacing (clamped to `2..=max_window`
+    /// pixels).
     Saddle {
         /// Blur as a fraction of the median spacing.
         blur: f64,
         /// Fit half-window as a fraction of the median spacing.
         window: f64,
+        /// Largest blur in pixels.
+        max_blur: f64,
+        /// Largest fit half-window in pixels.
+        max_window: usize,
     },
 }
 
@@ -109,6 +115,10 @@ pub struct DetectOptions {
     pub search_levels: Vec<SearchLevel>,
     /// Sub-pixel refinement.
     pub refinement: Refinement,
+    /// Joint pass after the per-corner refinement: `Some(d)` replaces every corner by a
+    /// homography-plus-polynomial (degrees 2 to `d`) warp of the board fitted to all corners
+    /// of the view. Default `None` (see `docs/board-detect.md` for the measurements).
+    pub joint_warp_degree: Option<usize>,
     /// Verification: largest distance of a corner from the crossing of the lines through its
     /// row and column neighbours, as a fraction of its spacing (but at least 1 px).
     pub max_grid_deviation: f64,
@@ -146,6 +156,7 @@ impl Default for DetectOptions {
                 max_half_window: 12,
             },
             max_grid_deviation: 0.15,
+            joint_warp_degree: None,
         }
     }
 }
@@ -171,6 +182,10 @@ pub struct Detection {
     pub corners: Vec<[f64; 2]>,
     /// Image `[width, height]` in pixels.
     pub image_size: [usize; 2],
+    /// RMS residual in pixels of a homography fitted to the corners: a measure of how planar
+    /// and undistorted the view is (lens distortion alone gives a few tenths of a pixel to
+    /// several pixels); `f64::NAN` if the fit failed.
+    pub homography_rms: f64,
 }
 
 /// Detects `board` in a grayscale image buffer.
@@ -187,3 +202,4 @@ pub use io::{
     ImageResult, decode_gray, detect_file, detect_files, detect_image, load_gray,
     observations_json, stereo_observations_json,
 };
+pub mod synth;
