@@ -6,6 +6,7 @@
 
 mod candidates;
 mod detect;
+mod draw;
 mod error;
 mod gray;
 mod grid;
@@ -13,6 +14,7 @@ mod label;
 mod refine;
 mod warp;
 
+pub use draw::{draw_detection, write_overlay_png};
 pub use error::DetectError;
 pub use gray::GrayView;
 
