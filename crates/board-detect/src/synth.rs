@@ -1,8 +1,8 @@
 //! Synthetic chessboard images with exactly known corners, for tests and benchmarks.
 //!
 //! A board is rendered through a pinhole camera with radial distortion by area integration:
-//! every pixel whose footprint may straddle a square edge is supersampled on a 16x16 grid, so
-//! the image is the integral of the ideal board over the pixel to within 1/256 of a pixel's
+//! every pixel whose footprint may straddle a square edge is supersampled on a 12x12 grid, so
+//! the image is the integral of the ideal board over the pixel to within 1/144 of a pixel's
 //! area. The ideal board is then multiplied by a lighting gain field, blurred with a Gaussian
 //! (optics), and Gaussian noise is added before quantization to 8 bits. The true corners are
 //! the exact projections of the board corners.
@@ -138,7 +138,7 @@ impl Scene {
             let xd = (u - self.cx) / self.fx;
             let yd = (v - self.cy) / self.fy;
             let (mut x, mut y) = (xd, yd);
-            for _ in 0..20 {
+            for _ in 0..10 {
                 let r2 = x * x + y * y;
                 let d = 1.0 + k1 * r2 + k2 * r2 * r2;
                 x = xd / d;
@@ -176,7 +176,7 @@ impl Scene {
         let corner_vals: Vec<f64> = (0..(h + 1) * cw)
             .map(|i| albedo((i % cw) as f64 - 0.5, (i / cw) as f64 - 0.5))
             .collect();
-        let n = 16;
+        let n = 12;
         let mut img = vec![0f64; w * h];
         for y in 0..h {
             for x in 0..w {
