@@ -55,7 +55,6 @@ pub(crate) fn run(
             continue;
         }
         let sigma = level.blur;
-        let t0 = std::time::Instant::now();
         let search: &ImageF = if ff == 1 {
             &full
         } else {
@@ -69,25 +68,9 @@ pub(crate) fn run(
                 .unwrap_or(&full)
         };
         let blur = search.blurred(sigma);
-        let t1 = std::time::Instant::now();
         let ring = (1.6 * sigma).max(2.5);
         let cands = candidates::find(&blur, ring, 4000);
-        let t2 = std::time::Instant::now();
         let grids = grid::find_grids(&cands, &blur, &params);
-        let t3 = std::time::Instant::now();
-        if std::env::var_os("BD_TRACE").is_some() {
-            eprintln!(
-                "sigma {sigma} blur {:?} cands {} {:?} grids {:?} sizes {:?}",
-                t1 - t0,
-                cands.len(),
-                t2 - t1,
-                t3 - t2,
-                grids
-                    .iter()
-                    .map(|g| (g.nu, g.nv, g.count()))
-                    .collect::<Vec<_>>()
-            );
-        }
         for g in grids {
             match complete_grid(g, &blur, ring, board) {
                 Ok(pts) => {
@@ -153,14 +136,7 @@ fn complete_grid(
             let p = g.pts[i].unwrap_or([0.0, 0.0]);
             match fit.refine(blur, p) {
                 Some(q) if candidates::ring_test(blur, q[0], q[1], ring) => g.pts[i] = Some(q),
-                other => {
-                    if std::env::var_os("BD_TRACE").is_some() {
-                        eprintln!(
-                            "fill {i} ({}, {}) at {p:?} -> {other:?}",
-                            i % g.nu,
-                            i / g.nu
-                        );
-                    }
+                _ => {
                     return Err((
                         DetectError::PartialBoard {
                             found: count,
@@ -255,10 +231,10 @@ fn finish(
         }
     }
     label::check_consistency(&pts, cols, rows, opts.max_grid_deviation, 1.0)?;
-    if let Some(d) = opts.joint_warp_degree {
-        if let Some(q) = crate::warp::smooth(&pts, cols, rows, d) {
-            pts = q;
-        }
+    if let Some(d) = opts.joint_warp_degree
+        && let Some(q) = crate::warp::smooth(&pts, cols, rows, d)
+    {
+        pts = q;
     }
     let homography_rms = crate::warp::homography_fit(&pts, cols).map_or(f64::NAN, |(_, rms)| rms);
     Ok(Detection {

@@ -417,14 +417,12 @@ fn grow_plus_u(
         if contrast < 5.0 {
             return false;
         }
-        if nu >= 3 {
-            if let (Some(z0), Some(z1)) = (g.get(nu - 3, v), g.get(nu - 3, v + 1)) {
-                let prev2 = cell_value(img, z0, z1, b0, b1);
-                if (new - prev2).abs() > contrast
-                    || (prev2 - prev).signum() != (new - prev).signum()
-                {
-                    return false;
-                }
+        if nu >= 3
+            && let (Some(z0), Some(z1)) = (g.get(nu - 3, v), g.get(nu - 3, v + 1))
+        {
+            let prev2 = cell_value(img, z0, z1, b0, b1);
+            if (new - prev2).abs() > contrast || (prev2 - prev).signum() != (new - prev).signum() {
+                return false;
             }
         }
         checked += 1;
@@ -467,37 +465,39 @@ pub(crate) fn predict_missing(g: &mut Grid) -> bool {
                 }
                 let mut preds: Vec<P> = Vec::new();
                 // Between two neighbours of a row or column: the midpoint.
-                if u > 0 && u + 1 < g.nu {
-                    if let (Some(a), Some(b)) = (g.get(u - 1, v), g.get(u + 1, v)) {
-                        preds.push([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]);
-                    }
+                if u > 0
+                    && u + 1 < g.nu
+                    && let (Some(a), Some(b)) = (g.get(u - 1, v), g.get(u + 1, v))
+                {
+                    preds.push([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]);
                 }
-                if v > 0 && v + 1 < g.nv {
-                    if let (Some(a), Some(b)) = (g.get(u, v - 1), g.get(u, v + 1)) {
-                        preds.push([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]);
-                    }
+                if v > 0
+                    && v + 1 < g.nv
+                    && let (Some(a), Some(b)) = (g.get(u, v - 1), g.get(u, v + 1))
+                {
+                    preds.push([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]);
                 }
                 // Extrapolated from two on one side.
                 if preds.is_empty() {
-                    if u >= 2 {
-                        if let (Some(a), Some(b)) = (g.get(u - 2, v), g.get(u - 1, v)) {
-                            preds.push(extrapolate(None, a, b));
-                        }
+                    if u >= 2
+                        && let (Some(a), Some(b)) = (g.get(u - 2, v), g.get(u - 1, v))
+                    {
+                        preds.push(extrapolate(None, a, b));
                     }
-                    if u + 2 < g.nu {
-                        if let (Some(a), Some(b)) = (g.get(u + 2, v), g.get(u + 1, v)) {
-                            preds.push(extrapolate(None, a, b));
-                        }
+                    if u + 2 < g.nu
+                        && let (Some(a), Some(b)) = (g.get(u + 2, v), g.get(u + 1, v))
+                    {
+                        preds.push(extrapolate(None, a, b));
                     }
-                    if v >= 2 {
-                        if let (Some(a), Some(b)) = (g.get(u, v - 2), g.get(u, v - 1)) {
-                            preds.push(extrapolate(None, a, b));
-                        }
+                    if v >= 2
+                        && let (Some(a), Some(b)) = (g.get(u, v - 2), g.get(u, v - 1))
+                    {
+                        preds.push(extrapolate(None, a, b));
                     }
-                    if v + 2 < g.nv {
-                        if let (Some(a), Some(b)) = (g.get(u, v + 2), g.get(u, v + 1)) {
-                            preds.push(extrapolate(None, a, b));
-                        }
+                    if v + 2 < g.nv
+                        && let (Some(a), Some(b)) = (g.get(u, v + 2), g.get(u, v + 1))
+                    {
+                        preds.push(extrapolate(None, a, b));
                     }
                 }
                 if !preds.is_empty() {

@@ -51,7 +51,7 @@ pub(crate) fn gradient(img: &ImageF, p: P, hw: usize, sigma_w: f64) -> Option<P>
             }
         }
         let det = a11 * a22 - a12 * a12;
-        if !(det > 1e-9 * (a11 + a22).powi(2)) {
+        if det.is_nan() || det <= 1e-9 * (a11 + a22).powi(2) {
             return None;
         }
         let sx = (a22 * b1 - a12 * b2) / det;
@@ -149,7 +149,7 @@ impl SaddleFit {
             }
             let [a, b, cc, d, e, _] = c;
             let det = 4.0 * a * cc - b * b;
-            if !(det < 0.0) {
+            if det.is_nan() || det >= 0.0 {
                 return None;
             }
             let sx = -(2.0 * cc * d - b * e) / det;
