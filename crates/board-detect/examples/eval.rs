@@ -1,8 +1,10 @@
 //! Development harness: detect a list of images with chosen options, write the observation
 //! file, print counts and the median time. Not a test.
 //!
-//! `cargo run --release -p board-detect --example eval -- COLS ROWS SQUARE OUT.json [--refine SPEC] [--threads N] IMAGES...`
-//! SPEC: `none`, `gradient:WINDOW:MAXHW`, `saddle:BLUR:WINDOW`.
+//! `cargo run --release -p board-detect --example eval -- COLS ROWS SQUARE OUT.json [--refine SPEC]
+//! [--warp DEGREE] [--threads N] [--repeats N] IMAGES...`
+//! SPEC: `none`, `gradient:WINDOW:MAXHW`, `saddle:BLUR:WINDOW[:MAXBLUR[:MAXWINDOW]]`.
+//! Threads default to 1 (the benchmark's single-thread timing).
 use board_detect::{Board, DetectOptions, Refinement, detect_files, observations_json};
 use std::path::PathBuf;
 
@@ -21,6 +23,7 @@ fn main() {
     let out = &args[3];
     let mut opts = DetectOptions::default();
     let mut threads = Some(1);
+    let mut repeats = 1usize;
     let mut files = Vec::new();
     let mut i = 4;
     while i < args.len() {
@@ -47,6 +50,10 @@ fn main() {
                 opts.joint_warp_degree = Some(args[i + 1].parse().unwrap());
                 i += 1;
             }
+            "--repeats" => {
+                repeats = args[i + 1].parse().unwrap();
+                i += 1;
+            }
             "--threads" => {
                 threads = Some(args[i + 1].parse().unwrap());
                 i += 1;
@@ -55,7 +62,16 @@ fn main() {
         }
         i += 1;
     }
-    let res = detect_files(&files, &board, &opts, threads);
+    let mut res = detect_files(&files, &board, &opts, threads);
+    // Repeats: keep each image's fastest detection time (the corners are identical).
+    for _ in 1..repeats {
+        let again = detect_files(&files, &board, &opts, threads);
+        for (r, a) in res.iter_mut().zip(again) {
+            if let (Some(t), Some(u)) = (r.detection_seconds, a.detection_seconds) {
+                r.detection_seconds = Some(t.min(u));
+            }
+        }
+    }
     let v = observations_json(&res, &board);
     for r in &res {
         if let Err(e) = &r.outcome {

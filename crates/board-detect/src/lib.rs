@@ -153,9 +153,11 @@ impl Default for DetectOptions {
                     min_side: 0,
                 },
             ],
-            refinement: Refinement::Gradient {
-                window: 0.25,
-                max_half_window: 12,
+            refinement: Refinement::Saddle {
+                blur: 0.1,
+                window: 0.2,
+                max_blur: 1.5,
+                max_window: 4,
             },
             max_grid_deviation: 0.15,
             joint_warp_degree: None,
