@@ -1,7 +1,66 @@
 //! Chessboard corner detection for camera calibration.
 //!
 //! Image in, labelled sub-pixel chessboard corners out, or a typed [`DetectError`] saying why
-//! not. See `docs/board-detect.md` for the method and its measured accuracy.
+//! not. No dependency on the calibration solvers. The method and its measured accuracy and
+//! speed are in `docs/board-detect.md`.
+//!
+//! # Conventions
+//!
+//! * A board is given by its inner corners, `cols x rows` (a 9x6 board has 10x7 squares).
+//! * Corner `(c, r)` has object point `(c * square, r * square, 0)` and index `r * cols + c`
+//!   (row-major), the order of OpenCV's `findChessboardCorners` in the workspace's data files.
+//! * Pixels follow OpenCV: the centre of the top-left pixel is `(0, 0)`, `x` right, `y` down.
+//! * Orientation: the labels are right-handed in the image (from the row direction to the
+//!   column direction is clockwise on the screen, as the board is seen from its printed side).
+//!   When `cols + rows` is odd (9x6), a 180-degree rotation swaps the square colours, and the
+//!   labels are chosen so that the **cell between corners `0`, `1`, `cols` and `cols + 1` is
+//!   dark**: the same physical corner is corner 0 in every image, so the two cameras of a
+//!   stereo pair agree whatever the board's rotation. When `cols + rows` is even (8x6, 7x5)
+//!   the board with its colours is symmetric under 180 degrees and no image can tell; the
+//!   labels are then chosen so that the row direction points to the image's right, and a
+//!   board whose rows are within about 10 degrees of vertical is refused as
+//!   [`DetectError::AmbiguousOrientation`] rather than guessed. Square boards (`cols == rows`)
+//!   follow the same two rules over their four rotations.
+//!
+//! # Pipeline
+//!
+//! 1. Search (on a copy downscaled to a pixel budget, coarse level first): saddle points of
+//!    the blurred image (`Ixy^2 - Ixx Iyy`), kept when a ring around them shows two bright
+//!    and two dark opposite sectors.
+//! 2. Grid: a 3x3 seed of candidates with alternating cell colours, grown a row or column at
+//!    a time by projective extrapolation; corners the search missed are predicted and must
+//!    pass the ring test.
+//! 3. Labels by the rules above; checks that the grid is the board's size.
+//! 4. Refinement at full resolution (default: saddle point of a quadratic fitted to the
+//!    lightly blurred image, see [`Refinement`]).
+//! 5. Verification: every corner must lie where the lines through its row and column
+//!    neighbours cross.
+//!
+//! # Example
+//!
+//! ```
+//! use board_detect::synth::Scene;
+//! use board_detect::{Board, DetectOptions, GrayView, detect};
+//!
+//! // A rendered 9x6 board with known corners (any 8-bit grey buffer works the same way).
+//! let scene = Scene::default();
+//! let rendered = scene.render();
+//! let view = GrayView::packed(&rendered.pixels, scene.width, scene.height)?;
+//! let board = Board::new(9, 6, 1.0)?;
+//! let found = detect(&view, &board, &DetectOptions::default())?;
+//! let worst = found
+//!     .corners
+//!     .iter()
+//!     .zip(&rendered.corners)
+//!     .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]))
+//!     .fold(0.0, f64::max);
+//! assert!(worst < 0.2);
+//! # Ok::<(), board_detect::DetectError>(())
+//! ```
+//!
+//! Files: [`detect_file`] and [`detect_files`] (parallel over images, per-image results and
+//! detection times), [`observations_json`] and [`stereo_observations_json`] (the workspace's
+//! observation format), [`write_overlay_png`] (a picture of what was found).
 #![deny(missing_docs)]
 
 mod candidates;
@@ -17,6 +76,8 @@ mod warp;
 pub use draw::{draw_detection, write_overlay_png};
 pub use error::DetectError;
 pub use gray::GrayView;
+/// The `image` crate whose types this crate's API takes and returns.
+pub use image;
 
 /// A chessboard, described by its inner corners: `cols` corners per row, `rows` per column
 /// (a 9x6 board has 10x7 squares). Corner `(c, r)` has object point `(c * square, r * square, 0)`
