@@ -198,3 +198,74 @@ fn observation_file_and_thread_independence() {
     );
     assert!(v["detection_seconds_per_image"].as_f64().unwrap() > 0.0);
 }
+
+/// The same physical board seen rotated by 180 degrees: every bundled image, turned upside
+/// down pixel for pixel, gives the same labels (the colour rule follows the board), at the
+/// rotated positions. The pipeline treats both directions of each axis alike, so the
+/// positions agree to below 0.001 px (measured); 0.1 px leaves room for floating-point
+/// reassociation and is still far below the one square a relabelling would cost.
+#[test]
+fn upside_down_images_keep_their_labels() {
+    let opts = DetectOptions::default();
+    for set in ["sourishg1", "sourishg2"] {
+        let b = board(set);
+        for path in images(set, "left")
+            .iter()
+            .chain(images(set, "right").iter())
+            .step_by(3)
+        {
+            let img = board_detect::load_gray(path, &opts).unwrap();
+            let (w, h) = img.dimensions();
+            let mut turned = img.clone();
+            for y in 0..h {
+                for x in 0..w {
+                    turned.put_pixel(w - 1 - x, h - 1 - y, *img.get_pixel(x, y));
+                }
+            }
+            let a = board_detect::detect_image(&img, &b, &opts).unwrap();
+            let t = board_detect::detect_image(&turned, &b, &opts).unwrap();
+            for (i, (p, q)) in a.corners.iter().zip(&t.corners).enumerate() {
+                let back = [(w - 1) as f64 - q[0], (h - 1) as f64 - q[1]];
+                let d = (p[0] - back[0]).hypot(p[1] - back[1]);
+                assert!(
+                    d < 0.1,
+                    "{}: corner {i} moves {d:.3} px when the image is turned",
+                    path.display()
+                );
+            }
+        }
+    }
+}
+
+/// The overlay draws on any detection without panicking, also with corners outside the
+/// image, and marks a failure with a red frame.
+#[test]
+fn overlay_pictures() {
+    let opts = DetectOptions::default();
+    let b = board("sourishg2");
+    let img = board_detect::load_gray(&images("sourishg2", "left")[0], &opts).unwrap();
+    let det = board_detect::detect_image(&img, &b, &opts).unwrap();
+    let pic = board_detect::draw_detection(&img, &b, Some(&det));
+    assert_eq!(pic.dimensions(), img.dimensions());
+    // Corner 0 is ringed in red.
+    let c0 = det.corners[0];
+    let red = (0..360).any(|k| {
+        let a = (k as f64).to_radians();
+        let (x, y) = (
+            (c0[0] + 5.5 * a.cos()).round() as u32,
+            (c0[1] + 5.5 * a.sin()).round() as u32,
+        );
+        pic.get_pixel(x, y).0 == [230, 30, 30]
+    });
+    assert!(red);
+    let mut wild = det.clone();
+    wild.corners[3] = [-1e9, 5.0];
+    wild.corners[4] = [f64::NAN, 1e12];
+    let _ = board_detect::draw_detection(&img, &b, Some(&wild));
+    let none = board_detect::draw_detection(&img, &b, None);
+    assert_eq!(none.get_pixel(0, 0).0, [230, 30, 30]);
+    let out = std::env::temp_dir().join(format!("board-detect-overlay-{}.png", std::process::id()));
+    board_detect::write_overlay_png(&out, &img, &b, Some(&det)).unwrap();
+    assert!(std::fs::metadata(&out).unwrap().len() > 1000);
+    std::fs::remove_file(&out).ok();
+}
