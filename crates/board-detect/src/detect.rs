@@ -37,7 +37,6 @@ pub(crate) fn run(
     while ((w / f) as u64) * ((h / f) as u64) > opts.search_max_pixels.max(1024) {
         f += 1;
     }
-    let full = ImageF::from_view(view);
     let (cols, rows) = (board.cols, board.rows);
     let n = cols * rows;
     let params = GrowParams {
@@ -55,19 +54,20 @@ pub(crate) fn run(
             continue;
         }
         let sigma = level.blur;
-        let search: &ImageF = if ff == 1 {
-            &full
-        } else {
-            if !levels.iter().any(|(k, _)| *k == ff) {
-                levels.push((ff, ImageF::from_view_downscaled(view, ff)));
+        // Search images are made once per scale and only when a level needs them.
+        let idx = match levels.iter().position(|(k, _)| *k == ff) {
+            Some(i) => i,
+            None => {
+                let im = if ff == 1 {
+                    ImageF::from_view(view)
+                } else {
+                    ImageF::from_view_downscaled(view, ff)
+                };
+                levels.push((ff, im));
+                levels.len() - 1
             }
-            levels
-                .iter()
-                .find(|(k, _)| *k == ff)
-                .map(|(_, im)| im)
-                .unwrap_or(&full)
         };
-        let blur = search.blurred(sigma);
+        let blur = levels[idx].1.blurred(sigma);
         let ring = (1.6 * sigma).max(2.5);
         let cands = candidates::find(&blur, ring, 4000);
         let grids = grid::find_grids(&cands, &blur, &params);
@@ -80,7 +80,7 @@ pub(crate) fn run(
                         .iter()
                         .map(|p| [p[0] * scale + off, p[1] * scale + off])
                         .collect();
-                    return finish(&full, pts, board, opts);
+                    return finish(view, pts, board, opts);
                 }
                 Err((e, count)) => {
                     // Keep the most informative failure: the one with the most corners.
@@ -175,8 +175,27 @@ fn spacings(pts: &[P], cols: usize, rows: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The view's pixels in the board's bounding box grown by `margin` pixels, and the box origin.
+fn board_region(view: &GrayView<'_>, pts: &[P], margin: f64) -> (ImageF, f64, f64) {
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in pts {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    let cx0 = (x0 - margin).max(0.0) as usize;
+    let cy0 = (y0 - margin).max(0.0) as usize;
+    let cx1 = (x1 + margin).max(0.0) as usize + 1;
+    let cy1 = (y1 + margin).max(0.0) as usize + 1;
+    let img = ImageF::from_view_region(view, cx0, cy0, cx1, cy1);
+    (img, cx0 as f64, cy0 as f64)
+}
+
+/// Refines at full resolution (only the board's region is converted), verifies, and builds
+/// the detection.
 fn finish(
-    full: &ImageF,
+    view: &GrayView<'_>,
     mut pts: Vec<P>,
     board: &Board,
     opts: &DetectOptions,
@@ -189,10 +208,13 @@ fn finish(
             window,
             max_half_window,
         } => {
+            let max_hw = max_half_window.max(2);
+            let (img, ox, oy) = board_region(view, &pts, max_hw as f64 + 3.0);
             for (p, &s) in pts.iter_mut().zip(&sp) {
-                let hw = ((window * s).round() as usize).clamp(2, max_half_window.max(2));
-                if let Some(q) = refine::gradient(full, *p, hw, hw as f64 * 0.7) {
-                    *p = q;
+                let hw = ((window * s).round() as usize).clamp(2, max_hw);
+                if let Some(q) = refine::gradient(&img, [p[0] - ox, p[1] - oy], hw, hw as f64 * 0.7)
+                {
+                    *p = [q[0] + ox, q[1] + oy];
                 }
             }
         }
@@ -209,20 +231,9 @@ fn finish(
             let r = ((window * med).round() as usize).clamp(2, max_window.max(2));
             // Blur only the board's bounding box (with room for the fit and the kernel).
             let margin = (r as f64 + 3.0 * sigma + 4.0).ceil();
-            let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-            for p in &pts {
-                x0 = x0.min(p[0]);
-                y0 = y0.min(p[1]);
-                x1 = x1.max(p[0]);
-                y1 = y1.max(p[1]);
-            }
-            let cx0 = (x0 - margin).max(0.0) as usize;
-            let cy0 = (y0 - margin).max(0.0) as usize;
-            let cx1 = ((x1 + margin).max(0.0) as usize + 1).min(full.w);
-            let cy1 = ((y1 + margin).max(0.0) as usize + 1).min(full.h);
-            let img = full.crop(cx0, cy0, cx1, cy1).blurred(sigma);
+            let (region, ox, oy) = board_region(view, &pts, margin);
+            let img = region.blurred(sigma);
             let fit = SaddleFit::new(r, r as f64 * 0.6);
-            let (ox, oy) = (cx0 as f64, cy0 as f64);
             for p in pts.iter_mut() {
                 if let Some(q) = fit.refine(&img, [p[0] - ox, p[1] - oy]) {
                     *p = [q[0] + ox, q[1] + oy];
@@ -239,7 +250,7 @@ fn finish(
     let homography_rms = crate::warp::homography_fit(&pts, cols).map_or(f64::NAN, |(_, rms)| rms);
     Ok(Detection {
         corners: pts,
-        image_size: [full.w, full.h],
+        image_size: [view.width(), view.height()],
         homography_rms,
     })
 }

@@ -93,6 +93,21 @@ impl ImageF {
         }
     }
 
+    /// The sub-image `[x0, x1) x [y0, y1)` of a view (clamped to the view, at least one pixel).
+    pub fn from_view_region(v: &GrayView<'_>, x0: usize, y0: usize, x1: usize, y1: usize) -> Self {
+        let (x1, y1) = (x1.min(v.width).max(1), y1.min(v.height).max(1));
+        let (x0, y0) = (x0.min(x1 - 1), y0.min(y1 - 1));
+        let mut data = Vec::with_capacity((x1 - x0) * (y1 - y0));
+        for y in y0..y1 {
+            data.extend(v.row(y)[x0..x1].iter().map(|&b| b as f32));
+        }
+        Self {
+            w: x1 - x0,
+            h: y1 - y0,
+            data,
+        }
+    }
+
     /// The image downscaled by an integer factor `f` (box average of `f x f` blocks). A
     /// point `(x, y)` of the result is at `(f x + (f - 1) / 2, f y + (f - 1) / 2)` in the source.
     pub fn from_view_downscaled(v: &GrayView<'_>, f: usize) -> Self {
@@ -111,21 +126,6 @@ impl ImageF {
             data.extend(acc.iter().map(|&a| a as f32 * norm));
         }
         Self { w, h, data }
-    }
-
-    /// The sub-image `[x0, x1) x [y0, y1)` (clamped to the image).
-    pub fn crop(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> ImageF {
-        let (x1, y1) = (x1.min(self.w), y1.min(self.h));
-        let (x0, y0) = (x0.min(x1.saturating_sub(1)), y0.min(y1.saturating_sub(1)));
-        let mut data = Vec::with_capacity((x1 - x0) * (y1 - y0));
-        for y in y0..y1 {
-            data.extend_from_slice(&self.data[y * self.w + x0..y * self.w + x1]);
-        }
-        ImageF {
-            w: x1 - x0,
-            h: y1 - y0,
-            data,
-        }
     }
 
     #[inline]
