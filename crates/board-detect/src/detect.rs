@@ -1,0 +1,256 @@
+//! The detection pipeline: search for a grid, label it, refine, verify.
+
+use crate::candidates;
+use crate::gray::{GrayView, ImageF};
+use crate::grid::{self, GrowParams, P};
+use crate::label;
+use crate::refine::{self, SaddleFit};
+use crate::{Board, DetectError, DetectOptions, Detection, Refinement};
+
+/// Smallest side, in pixels, of an image that can be searched.
+pub(crate) const MIN_SIDE: usize = 16;
+
+pub(crate) fn check_size(width: u64, height: u64, opts: &DetectOptions) -> Result<(), DetectError> {
+    if width.saturating_mul(height) > opts.max_pixels {
+        return Err(DetectError::ImageTooLarge {
+            width,
+            height,
+            limit: opts.max_pixels,
+        });
+    }
+    if width < MIN_SIDE as u64 || height < MIN_SIDE as u64 {
+        return Err(DetectError::ImageTooSmall { width, height });
+    }
+    Ok(())
+}
+
+pub(crate) fn run(
+    view: &GrayView<'_>,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    board.validate()?;
+    let (w, h) = (view.width(), view.height());
+    check_size(w as u64, h as u64, opts)?;
+    // Search on an image of at most `search_max_pixels` (integer box downscale).
+    let mut f = 1usize;
+    while ((w / f) as u64) * ((h / f) as u64) > opts.search_max_pixels.max(1024) {
+        f += 1;
+    }
+    let (cols, rows) = (board.cols, board.rows);
+    let n = cols * rows;
+    let params = GrowParams {
+        tol: 0.3,
+        max_seeds: 40,
+        max_side: cols.max(rows) + 1,
+        target: n,
+    };
+    let mut best_err = DetectError::NoBoard;
+    let mut best_count = 0usize;
+    let mut levels: Vec<(usize, ImageF)> = Vec::new();
+    for level in &opts.search_levels {
+        let ff = f * level.downscale.max(1);
+        if (w / ff).min(h / ff) < level.min_side.max(MIN_SIDE) {
+            continue;
+        }
+        let sigma = level.blur;
+        // Search images are made once per scale and only when a level needs them.
+        let idx = match levels.iter().position(|(k, _)| *k == ff) {
+            Some(i) => i,
+            None => {
+                let im = if ff == 1 {
+                    ImageF::from_view(view)
+                } else {
+                    ImageF::from_view_downscaled(view, ff)
+                };
+                levels.push((ff, im));
+                levels.len() - 1
+            }
+        };
+        let blur = levels[idx].1.blurred(sigma);
+        let ring = (1.6 * sigma).max(2.5);
+        let cands = candidates::find(&blur, ring, 4000);
+        let grids = grid::find_grids(&cands, &blur, &params);
+        for g in grids {
+            match complete_grid(g, &blur, ring, board) {
+                Ok(pts) => {
+                    let scale = ff as f64;
+                    let off = (scale - 1.0) / 2.0;
+                    let pts: Vec<P> = pts
+                        .iter()
+                        .map(|p| [p[0] * scale + off, p[1] * scale + off])
+                        .collect();
+                    return finish(view, pts, board, opts);
+                }
+                Err((e, count)) => {
+                    // Keep the most informative failure: the one with the most corners.
+                    if count > best_count || matches!(best_err, DetectError::NoBoard) {
+                        best_count = count;
+                        best_err = e;
+                    }
+                }
+            }
+        }
+    }
+    Err(best_err)
+}
+
+/// Checks the grid size, fills and verifies missing corners, labels. On failure returns the
+/// reason and the number of corners the grid had.
+fn complete_grid(
+    mut g: grid::Grid,
+    blur: &ImageF,
+    ring: f64,
+    board: &Board,
+) -> Result<Vec<P>, (DetectError, usize)> {
+    let (cols, rows) = (board.cols, board.rows);
+    let count = g.count();
+    let fits = |a: usize, b: usize| (a <= cols && b <= rows) || (a <= rows && b <= cols);
+    if !fits(g.nu, g.nv) {
+        return Err((
+            DetectError::SizeMismatch {
+                found_cols: g.nu,
+                found_rows: g.nv,
+                cols,
+                rows,
+            },
+            count,
+        ));
+    }
+    let partial = |g: &grid::Grid| DetectError::PartialBoard {
+        found: g.count(),
+        expected: cols * rows,
+    };
+    let full = (g.nu == cols && g.nv == rows) || (g.nu == rows && g.nv == cols);
+    if !full {
+        return Err((partial(&g), count));
+    }
+    if count < g.nu * g.nv {
+        // Corners the candidate search missed: predict, refine, and demand an X-junction.
+        let missing: Vec<usize> = (0..g.pts.len()).filter(|&i| g.pts[i].is_none()).collect();
+        if !grid::predict_missing(&mut g) {
+            return Err((partial(&g), count));
+        }
+        let fit = SaddleFit::new(2, 1.5);
+        for i in missing {
+            let p = g.pts[i].unwrap_or([0.0, 0.0]);
+            match fit.refine(blur, p) {
+                Some(q) if candidates::ring_test(blur, q[0], q[1], ring) => g.pts[i] = Some(q),
+                _ => {
+                    return Err((
+                        DetectError::PartialBoard {
+                            found: count,
+                            expected: cols * rows,
+                        },
+                        count,
+                    ));
+                }
+            }
+        }
+    }
+    label::label(&g, cols, rows, blur, 1.0).map_err(|e| (e, count))
+}
+
+/// Per-corner spacing: distance to the nearest row or column neighbour.
+fn spacings(pts: &[P], cols: usize, rows: usize) -> Vec<f64> {
+    let d = |a: P, b: P| (a[0] - b[0]).hypot(a[1] - b[1]);
+    (0..rows * cols)
+        .map(|i| {
+            let (c, r) = (i % cols, i / cols);
+            let mut m = f64::MAX;
+            if c > 0 {
+                m = m.min(d(pts[i], pts[i - 1]));
+            }
+            if c + 1 < cols {
+                m = m.min(d(pts[i], pts[i + 1]));
+            }
+            if r > 0 {
+                m = m.min(d(pts[i], pts[i - cols]));
+            }
+            if r + 1 < rows {
+                m = m.min(d(pts[i], pts[i + cols]));
+            }
+            m
+        })
+        .collect()
+}
+
+/// The view's pixels in the board's bounding box grown by `margin` pixels, and the box origin.
+fn board_region(view: &GrayView<'_>, pts: &[P], margin: f64) -> (ImageF, f64, f64) {
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in pts {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    let cx0 = (x0 - margin).max(0.0) as usize;
+    let cy0 = (y0 - margin).max(0.0) as usize;
+    let cx1 = (x1 + margin).max(0.0) as usize + 1;
+    let cy1 = (y1 + margin).max(0.0) as usize + 1;
+    let img = ImageF::from_view_region(view, cx0, cy0, cx1, cy1);
+    (img, cx0 as f64, cy0 as f64)
+}
+
+/// Refines at full resolution (only the board's region is converted), verifies, and builds
+/// the detection.
+fn finish(
+    view: &GrayView<'_>,
+    mut pts: Vec<P>,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    let (cols, rows) = (board.cols, board.rows);
+    let sp = spacings(&pts, cols, rows);
+    match opts.refinement {
+        Refinement::None => {}
+        Refinement::Gradient {
+            window,
+            max_half_window,
+        } => {
+            let max_hw = max_half_window.max(2);
+            let (img, ox, oy) = board_region(view, &pts, max_hw as f64 + 3.0);
+            for (p, &s) in pts.iter_mut().zip(&sp) {
+                let hw = ((window * s).round() as usize).clamp(2, max_hw);
+                if let Some(q) = refine::gradient(&img, [p[0] - ox, p[1] - oy], hw, hw as f64 * 0.7)
+                {
+                    *p = [q[0] + ox, q[1] + oy];
+                }
+            }
+        }
+        Refinement::Saddle {
+            blur,
+            window,
+            max_blur,
+            max_window,
+        } => {
+            let mut sorted = sp.clone();
+            sorted.sort_by(f64::total_cmp);
+            let med = sorted[sorted.len() / 2];
+            let sigma = (blur * med).clamp(0.7, max_blur.max(0.7));
+            let r = ((window * med).round() as usize).clamp(2, max_window.max(2));
+            // Blur only the board's bounding box (with room for the fit and the kernel).
+            let margin = (r as f64 + 3.0 * sigma + 4.0).ceil();
+            let (region, ox, oy) = board_region(view, &pts, margin);
+            let img = region.blurred(sigma);
+            let fit = SaddleFit::new(r, r as f64 * 0.6);
+            for p in pts.iter_mut() {
+                if let Some(q) = fit.refine(&img, [p[0] - ox, p[1] - oy]) {
+                    *p = [q[0] + ox, q[1] + oy];
+                }
+            }
+        }
+    }
+    label::check_consistency(&pts, cols, rows, opts.max_grid_deviation, 1.0)?;
+    if let Some(d) = opts.joint_warp_degree
+        && let Some(q) = crate::warp::smooth(&pts, cols, rows, d)
+    {
+        pts = q;
+    }
+    let homography_rms = crate::warp::homography_fit(&pts, cols).map_or(f64::NAN, |(_, rms)| rms);
+    Ok(Detection {
+        corners: pts,
+        image_size: [view.width(), view.height()],
+        homography_rms,
+    })
+}

@@ -1,0 +1,109 @@
+//! Typed reasons why an image gives no board.
+
+use std::path::PathBuf;
+
+/// Why [`detect`](crate::detect) (or one of its variants) returned no board for an image.
+///
+/// Every failure on user data is one of these values; nothing in the crate panics on bad
+/// input. The `Display` text is short and suitable for the `reason` field of the
+/// observation files.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DetectError {
+    /// The board description itself is unusable (fewer than 2 inner corners along a side,
+    /// a non-positive or non-finite square size).
+    #[error("invalid board: {0}")]
+    InvalidBoard(String),
+
+    /// The pixel buffer does not match the declared width, height and stride, or a side is 0.
+    #[error("invalid image buffer: {0}")]
+    InvalidImage(String),
+
+    /// The image is smaller than any board could be (fewer than 16 pixels on a side).
+    #[error("image too small ({width}x{height} pixels)")]
+    ImageTooSmall {
+        /// Width in pixels.
+        width: u64,
+        /// Height in pixels.
+        height: u64,
+    },
+
+    /// The image has more pixels than [`DetectOptions::max_pixels`](crate::DetectOptions::max_pixels)
+    /// allows; it was refused before any pixel buffer of that size was allocated.
+    #[error("image too large ({width}x{height} pixels, limit {limit} pixels)")]
+    ImageTooLarge {
+        /// Width in pixels.
+        width: u64,
+        /// Height in pixels.
+        height: u64,
+        /// The pixel budget in force.
+        limit: u64,
+    },
+
+    /// The file could not be read (missing, permission denied, ...).
+    #[error("cannot read {path}: {message}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's message.
+        message: String,
+    },
+
+    /// The file is not an image in a supported format (JPEG, PNG).
+    #[error("unsupported image format: {0}")]
+    UnsupportedFormat(String),
+
+    /// The file looks like a supported image but its data is corrupt or truncated.
+    #[error("cannot decode image: {0}")]
+    Decode(String),
+
+    /// No chessboard-like corner grid was found at all.
+    #[error("no board found")]
+    NoBoard,
+
+    /// A corner grid was found but not all of the board's corners: part of the board is
+    /// hidden, out of the image or too blurred.
+    #[error("partial board: {found} of {expected} corners found")]
+    PartialBoard {
+        /// Corners found (in the largest grid).
+        found: usize,
+        /// Corners of the board (`cols * rows`).
+        expected: usize,
+    },
+
+    /// The corner grid found is larger than the board in some direction, so it is a
+    /// different board (or two boards side by side) and cannot be labelled.
+    #[error(
+        "board size mismatch: found a {found_cols}x{found_rows} corner grid, expected {cols}x{rows}"
+    )]
+    SizeMismatch {
+        /// Grid size found along the first grid direction.
+        found_cols: usize,
+        /// Grid size found along the second grid direction.
+        found_rows: usize,
+        /// Expected inner corners per row.
+        cols: usize,
+        /// Expected inner corners per column.
+        rows: usize,
+    },
+
+    /// The board was found but its orientation cannot be decided: the colour rule does not
+    /// apply (both `cols + rows` even, or a square board) and the board's row direction is
+    /// too close to the image diagonal or vertical for the geometric rule, or the square
+    /// colours are too faint to tell.
+    #[error("ambiguous orientation: {0}")]
+    AmbiguousOrientation(String),
+
+    /// A full grid was found, but its geometry is not that of a planar board seen by a
+    /// camera: a corner deviates from the position its neighbours predict.
+    #[error(
+        "inconsistent grid: corner {index} is {error_px:.2} px from where its neighbours put it (limit {limit_px:.2} px)"
+    )]
+    InconsistentGrid {
+        /// Row-major index of the worst corner.
+        index: usize,
+        /// Its deviation in pixels.
+        error_px: f64,
+        /// The limit in pixels.
+        limit_px: f64,
+    },
+}

@@ -1,0 +1,296 @@
+//! Files: decoding with a pixel budget, the parallel batch, and the observation JSON files.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use image::{ImageFormat, ImageReader};
+use serde_json::{Value, json};
+
+use crate::{Board, DetectError, DetectOptions, Detection, GrayView, detect};
+
+/// Detects `board` in an [`image::GrayImage`].
+pub fn detect_image(
+    image: &image::GrayImage,
+    board: &Board,
+    options: &DetectOptions,
+) -> Result<Detection, DetectError> {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let view = GrayView::packed(image.as_raw(), w, h)?;
+    detect(&view, board, options)
+}
+
+/// Reads and decodes a JPEG or PNG file to 8-bit grayscale. The header is read first and an
+/// image above `options.max_pixels` (or below 16 pixels on a side) is refused before its
+/// pixels are decoded; decoder memory is limited accordingly.
+pub fn load_gray(path: &Path, options: &DetectOptions) -> Result<image::GrayImage, DetectError> {
+    let io_err = |e: std::io::Error| DetectError::Io {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let reader = ImageReader::open(path)
+        .map_err(io_err)?
+        .with_guessed_format()
+        .map_err(io_err)?;
+    match reader.format() {
+        Some(ImageFormat::Jpeg | ImageFormat::Png) => {}
+        Some(f) => {
+            return Err(DetectError::UnsupportedFormat(format!(
+                "{f:?} (only JPEG and PNG are supported)"
+            )));
+        }
+        None => {
+            return Err(DetectError::UnsupportedFormat(
+                "not a JPEG or PNG file".into(),
+            ));
+        }
+    }
+    decode(reader, options)
+}
+
+/// Decodes an in-memory JPEG or PNG file to 8-bit grayscale, with the same checks as
+/// [`load_gray`].
+pub fn decode_gray(bytes: &[u8], options: &DetectOptions) -> Result<image::GrayImage, DetectError> {
+    let reader = ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| DetectError::Decode(e.to_string()))?;
+    match reader.format() {
+        Some(ImageFormat::Jpeg | ImageFormat::Png) => {}
+        Some(f) => {
+            return Err(DetectError::UnsupportedFormat(format!(
+                "{f:?} (only JPEG and PNG are supported)"
+            )));
+        }
+        None => {
+            return Err(DetectError::UnsupportedFormat(
+                "not a JPEG or PNG file".into(),
+            ));
+        }
+    }
+    decode(reader, options)
+}
+
+fn decode<R: std::io::BufRead + std::io::Seek>(
+    reader: ImageReader<R>,
+    options: &DetectOptions,
+) -> Result<image::GrayImage, DetectError> {
+    let mut decoder = reader.into_decoder().map_err(map_image_err)?;
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    crate::detect::check_size(w as u64, h as u64, options)?;
+    // The decoded buffer of up to 4 channels of 16 bits, plus the decoder's own working memory.
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some((w as u64 * h as u64 * 8).saturating_add(64 << 20));
+    image::ImageDecoder::set_limits(&mut decoder, limits).map_err(map_image_err)?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(map_image_err)?;
+    Ok(img.into_luma8())
+}
+
+fn map_image_err(e: image::ImageError) -> DetectError {
+    match e {
+        image::ImageError::Unsupported(u) => DetectError::UnsupportedFormat(u.to_string()),
+        image::ImageError::Limits(l) => DetectError::Decode(format!("decoder memory limit: {l}")),
+        other => DetectError::Decode(other.to_string()),
+    }
+}
+
+/// The outcome for one image file of [`detect_files`].
+#[derive(Debug, Clone)]
+pub struct ImageResult {
+    /// The file.
+    pub path: PathBuf,
+    /// `[width, height]` in pixels when the image could be decoded.
+    pub image_size: Option<[usize; 2]>,
+    /// The board, or why not.
+    pub outcome: Result<Detection, DetectError>,
+    /// Wall time of detection and refinement in seconds, decoding excluded; `None` when the
+    /// image could not be decoded.
+    pub detection_seconds: Option<f64>,
+}
+
+impl ImageResult {
+    /// The file name (last path component), as written in the observation files.
+    pub fn file_name(&self) -> String {
+        self.path
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| self.path.display().to_string())
+    }
+}
+
+/// Decodes `path` and detects `board` in it, timing the detection alone.
+pub fn detect_file(path: &Path, board: &Board, options: &DetectOptions) -> ImageResult {
+    let img = match load_gray(path, options) {
+        Ok(img) => img,
+        Err(e) => {
+            return ImageResult {
+                path: path.to_path_buf(),
+                image_size: None,
+                outcome: Err(e),
+                detection_seconds: None,
+            };
+        }
+    };
+    let t = Instant::now();
+    let outcome = detect_image(&img, board, options);
+    let dt = t.elapsed().as_secs_f64();
+    ImageResult {
+        path: path.to_path_buf(),
+        image_size: Some([img.width() as usize, img.height() as usize]),
+        outcome,
+        detection_seconds: Some(dt),
+    }
+}
+
+/// Detects `board` in every file, in parallel over images with rayon: `threads = None` uses
+/// rayon's global pool (all cores), `Some(n)` a pool of `n` threads (`Some(1)`: sequential).
+/// Results are in the order of `paths`, whatever the thread count.
+pub fn detect_files(
+    paths: &[PathBuf],
+    board: &Board,
+    options: &DetectOptions,
+    threads: Option<usize>,
+) -> Vec<ImageResult> {
+    use rayon::prelude::*;
+    let run = || {
+        paths
+            .par_iter()
+            .map(|p| detect_file(p, board, options))
+            .collect::<Vec<_>>()
+    };
+    match threads {
+        None => run(),
+        Some(n) => match rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+        {
+            Ok(pool) => pool.install(run),
+            Err(_) => paths
+                .iter()
+                .map(|p| detect_file(p, board, options))
+                .collect(),
+        },
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+fn board_json(board: &Board) -> Value {
+    json!({"cols": board.cols, "rows": board.rows, "square": board.square})
+}
+
+fn points_json(p: &[[f64; 2]]) -> Value {
+    Value::Array(p.iter().map(|q| json!([q[0], q[1]])).collect())
+}
+
+fn image_size_of<'a>(results: impl Iterator<Item = &'a ImageResult>) -> Option<[usize; 2]> {
+    let mut first = None;
+    for r in results {
+        if let (Ok(d), None) = (&r.outcome, first) {
+            first = Some(d.image_size);
+        }
+    }
+    first
+}
+
+/// The single-camera observation file (see `docs/formats.md`): `image_size` (of the first
+/// detected image), `views` with `image`, `object_points` and `image_points`,
+/// `rejected_images` with `image` and `reason` (also images whose size differs from the first),
+/// `detection_seconds_per_image` (median over the images that were decoded) and `board`.
+pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
+    let size = image_size_of(results.iter());
+    let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
+    let mut views = Vec::new();
+    let mut rejected = Vec::new();
+    for r in results {
+        match &r.outcome {
+            Ok(d) if Some(d.image_size) == size => views.push(json!({
+                "image": r.file_name(),
+                "object_points": obj.clone(),
+                "image_points": points_json(&d.corners),
+            })),
+            Ok(d) => rejected.push(json!({
+                "image": r.file_name(),
+                "reason": format!("image size {}x{} differs from the first image's", d.image_size[0], d.image_size[1]),
+            })),
+            Err(e) => rejected.push(json!({"image": r.file_name(), "reason": e.to_string()})),
+        }
+    }
+    json!({
+        "image_size": size,
+        "views": views,
+        "rejected_images": rejected,
+        "detection_seconds_per_image": median(results.iter().filter_map(|r| r.detection_seconds).collect()),
+        "board": board_json(board),
+    })
+}
+
+/// The stereo observation file for paired lists (`left[i]` with `right[i]`; extra entries of
+/// the longer list are reported as unpaired): `image_size`, `pairs` with `left_image`,
+/// `right_image`, `object_points`, `left_points`, `right_points`; `rejected_pairs` with
+/// `left_image`, `right_image` and `reason` (a pair is dropped when either side fails);
+/// `detection_seconds_per_image` (median over both cameras) and `board`.
+pub fn stereo_observations_json(
+    left: &[ImageResult],
+    right: &[ImageResult],
+    board: &Board,
+) -> Value {
+    let size = image_size_of(left.iter().chain(right.iter()));
+    let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
+    let mut pairs = Vec::new();
+    let mut rejected = Vec::new();
+    let n = left.len().max(right.len());
+    for i in 0..n {
+        let (l, r) = (left.get(i), right.get(i));
+        let name = |x: Option<&ImageResult>| x.map(|x| x.file_name());
+        let (Some(l), Some(r)) = (l, r) else {
+            rejected.push(json!({"left_image": name(l), "right_image": name(r), "reason": "no image to pair with"}));
+            continue;
+        };
+        let side = |x: &ImageResult| -> Result<Vec<[f64; 2]>, String> {
+            match &x.outcome {
+                Ok(d) if Some(d.image_size) == size => Ok(d.corners.clone()),
+                Ok(d) => Err(format!(
+                    "{}: image size {}x{} differs from the first image's",
+                    x.file_name(),
+                    d.image_size[0],
+                    d.image_size[1]
+                )),
+                Err(e) => Err(format!("{}: {e}", x.file_name())),
+            }
+        };
+        match (side(l), side(r)) {
+            (Ok(lp), Ok(rp)) => pairs.push(json!({
+                "left_image": l.file_name(),
+                "right_image": r.file_name(),
+                "object_points": obj.clone(),
+                "left_points": points_json(&lp),
+                "right_points": points_json(&rp),
+            })),
+            (a, b) => {
+                let reasons: Vec<String> = [a.err(), b.err()].into_iter().flatten().collect();
+                rejected.push(json!({
+                    "left_image": l.file_name(),
+                    "right_image": r.file_name(),
+                    "reason": reasons.join("; "),
+                }));
+            }
+        }
+    }
+    json!({
+        "image_size": size,
+        "pairs": pairs,
+        "rejected_pairs": rejected,
+        "detection_seconds_per_image": median(left.iter().chain(right.iter()).filter_map(|r| r.detection_seconds).collect()),
+        "board": board_json(board),
+    })
+}
