@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 bad input or failed calibration (one-line message on stderr); 2 bad
 //! command line (from the argument parser).
 
+mod detect;
 mod run;
 mod single;
 mod stereo;
@@ -22,10 +23,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Calibrate one camera from an observation file (JSON, see docs/formats.md).
+    /// Calibrate one camera from an observation file (JSON, see docs/formats.md) or from
+    /// photographs of a chessboard (--board COLSxROWS --square SIZE IMAGE...).
     Single(single::SingleArgs),
-    /// Calibrate a stereo rig from a stereo observation file (JSON, see docs/formats.md).
+    /// Calibrate a stereo rig from a stereo observation file, or from photographs (--board,
+    /// --square, the left images, --right and the right images).
     Stereo(stereo::StereoArgs),
+    /// Detect a chessboard's corners in photographs and write an observation file.
+    Detect(detect::DetectArgs),
     /// Write a synthetic observation file with known truth.
     #[command(subcommand)]
     Synth(synth::SynthCommand),
@@ -45,6 +50,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Single(args) => single::run(&args),
         Command::Stereo(args) => stereo::run(&args),
+        Command::Detect(args) => detect::run(&args),
         Command::Synth(command) => synth::run(&command),
     };
     match result {

@@ -1,13 +1,15 @@
 //! `calib single`: calibrate one camera.
 
+use crate::detect::{self, BoardArgs};
 use crate::run::{OutputArgs, calibrate_and_report};
-use crate::{Failure, parse_list};
+use crate::{Failure, parse_list, print_stdout};
 use calib_core::JsonFile;
 use calib_core::OutlierRejection;
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
 use camera_model::{CameraModel, Intrinsics, RotationKind};
 use clap::{Args, ValueEnum};
 use lm_solver::{DampingPolicy, Loss};
+use std::path::PathBuf;
 
 /// Options shared by the single and stereo commands.
 #[derive(Args, Debug, Clone)]
@@ -188,20 +190,61 @@ impl CameraArgs {
 /// Arguments of `calib single`.
 #[derive(Args, Debug)]
 pub struct SingleArgs {
-    /// Observation file (JSON).
-    pub observations: String,
+    /// Observation file (JSON), or images of the board with --board.
+    #[arg(required = true, value_name = "OBS.json | IMAGE...")]
+    pub inputs: Vec<String>,
+    #[command(flatten)]
+    pub board: BoardArgs,
     #[command(flatten)]
     pub output: OutputArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
 }
 
+/// The observation file named by `inputs`, or the observations detected in the images `inputs`
+/// with `--board`; and a name for messages.
+fn observations(args: &SingleArgs) -> Result<(Observations, String), Failure> {
+    let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
+    args.output.check_against(&inputs)?;
+    match args.board.board()? {
+        Some(board) => {
+            let paths: Vec<PathBuf> = args.inputs.iter().map(PathBuf::from).collect();
+            let (results, file) =
+                detect::single_observations(&paths, &board, &args.board, args.camera.threads)?;
+            if !args.output.quiet {
+                print_stdout(&detect::summary(&results, &file))?;
+            }
+            let observations = Observations::from_file(serde_json::from_value(file)?);
+            Ok((observations, format!("{} images", args.inputs.len())))
+        }
+        None => {
+            let [path] = inputs.as_slice() else {
+                return Err(Failure(format!(
+                    "{} inputs: give one observation file, or images with --board COLSxROWS --square SIZE",
+                    inputs.len()
+                )));
+            };
+            if looks_like_image(path) {
+                return Err(Failure(format!(
+                    "{path} is an image: give --board COLSxROWS and --square SIZE to detect the board"
+                )));
+            }
+            let observations = Observations::read_bounded(path, args.output.max_input())?;
+            Ok((observations, path.to_string()))
+        }
+    }
+}
+
+/// True for file names with an image extension.
+pub fn looks_like_image(path: &str) -> bool {
+    let lower = path.to_ascii_lowercase();
+    [".jpg", ".jpeg", ".png"].iter().any(|e| lower.ends_with(e))
+}
+
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
-    args.output.check_against(&[&args.observations])?;
-    let observations = Observations::read_bounded(&args.observations, args.output.max_input())?;
     let options = args.camera.options()?;
-    calibrate_and_report(&args.observations, &args.output, || {
-        calibrate(&observations, &options)
-            .map_err(|e| Failure(format!("{}: {e}", args.observations)))
+    let (observations, source) = observations(args)?;
+    calibrate_and_report(&source, &args.output, || {
+        calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })
 }

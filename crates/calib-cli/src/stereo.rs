@@ -1,13 +1,15 @@
 //! `calib stereo`: calibrate a stereo rig.
 
+use crate::detect::{self, BoardArgs};
 use crate::run::{OutputArgs, calibrate_and_report};
-use crate::single::CameraArgs;
-use crate::{Failure, parse_list};
+use crate::single::{CameraArgs, looks_like_image};
+use crate::{Failure, parse_list, print_stdout};
 use calib_core::JsonFile;
 use calib_stereo::{RigInit, StereoObservations, StereoOptions, calibrate_stereo};
 use camera_model::{AxisAngle, Intrinsics, Pose, RotationParameterization};
 use clap::{Args, ValueEnum};
 use nalgebra::Vector3;
+use std::path::PathBuf;
 
 #[derive(ValueEnum, Debug, Clone, Copy)]
 pub enum RigMethod {
@@ -20,8 +22,15 @@ pub enum RigMethod {
 /// Arguments of `calib stereo`.
 #[derive(Args, Debug)]
 pub struct StereoArgs {
-    /// Stereo observation file (JSON).
-    pub pairs: String,
+    /// Stereo observation file (JSON), or the left camera's images with --board (and the right
+    /// camera's with --right, paired in order).
+    #[arg(required = true, value_name = "PAIRS.json | LEFT_IMAGE...")]
+    pub inputs: Vec<String>,
+    /// The right camera's images (with --board), paired in order with the left ones.
+    #[arg(long, num_args = 1.., value_name = "RIGHT_IMAGE")]
+    pub right: Vec<String>,
+    #[command(flatten)]
+    pub board: BoardArgs,
     #[command(flatten)]
     pub output: OutputArgs,
     /// Options for both cameras (a per-camera guess below overrides --guess).
@@ -97,12 +106,58 @@ impl StereoArgs {
     }
 }
 
+/// The stereo observations: the file named by `inputs`, or detected in the images.
+fn observations(args: &StereoArgs) -> Result<(StereoObservations, String), Failure> {
+    let inputs: Vec<&str> = args
+        .inputs
+        .iter()
+        .chain(&args.right)
+        .map(String::as_str)
+        .collect();
+    args.output.check_against(&inputs)?;
+    match args.board.board()? {
+        Some(board) => {
+            if args.right.is_empty() {
+                return Err(Failure(
+                    "stereo from images needs the right camera's images: --right IMAGE...".into(),
+                ));
+            }
+            let left: Vec<PathBuf> = args.inputs.iter().map(PathBuf::from).collect();
+            let right: Vec<PathBuf> = args.right.iter().map(PathBuf::from).collect();
+            let (results, file) = detect::stereo_observations(
+                &left,
+                &right,
+                &board,
+                &args.board,
+                args.camera.threads,
+            )?;
+            if !args.output.quiet {
+                print_stdout(&detect::summary(&results, &file))?;
+            }
+            let observations = StereoObservations::from_file(serde_json::from_value(file)?);
+            Ok((observations, format!("{} image pairs", args.inputs.len())))
+        }
+        None => {
+            let ([path], true) = (args.inputs.as_slice(), args.right.is_empty()) else {
+                return Err(Failure(
+                    "give one stereo observation file, or images with --board COLSxROWS --square SIZE and --right".into(),
+                ));
+            };
+            if looks_like_image(path) {
+                return Err(Failure(format!(
+                    "{path} is an image: give --board COLSxROWS and --square SIZE to detect the board"
+                )));
+            }
+            let observations = StereoObservations::read_bounded(path, args.output.max_input())?;
+            Ok((observations, path.clone()))
+        }
+    }
+}
+
 pub fn run(args: &StereoArgs) -> Result<(), Failure> {
-    args.output.check_against(&[&args.pairs])?;
-    let observations = StereoObservations::read_bounded(&args.pairs, args.output.max_input())?;
     let options = args.options()?;
-    calibrate_and_report(&args.pairs, &args.output, || {
-        calibrate_stereo(&observations, &options)
-            .map_err(|e| Failure(format!("{}: {e}", args.pairs)))
+    let (observations, source) = observations(args)?;
+    calibrate_and_report(&source, &args.output, || {
+        calibrate_stereo(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })
 }
