@@ -199,6 +199,12 @@ pub struct SingleArgs {
     pub output: OutputArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
+    /// Instead of one calibration, fit every lens model and print a table: RMS, parameters,
+    /// validity over the image, and the cross-validated RMS (fitted on half of the views,
+    /// evaluated on the other half, both ways), with a recommendation. -o writes the table as
+    /// JSON.
+    #[arg(long)]
+    pub compare_models: bool,
 }
 
 /// The observation file named by `inputs`, or the observations detected in the images `inputs`
@@ -244,6 +250,17 @@ pub fn looks_like_image(path: &str) -> bool {
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     let options = args.camera.options()?;
     let (observations, source) = observations(args)?;
+    if args.compare_models {
+        let comparison =
+            calib_single::compare_models(&observations, &options, &calib_single::compare::MODELS);
+        if !args.output.quiet {
+            print_stdout(&comparison.table())?;
+        }
+        if let Some(path) = &args.output.output {
+            crate::write_json(path, &serde_json::to_value(&comparison)?)?;
+        }
+        return Ok(());
+    }
     calibrate_and_report(&source, &args.output, || {
         calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })

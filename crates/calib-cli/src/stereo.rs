@@ -36,6 +36,10 @@ pub struct StereoArgs {
     /// Options for both cameras (a per-camera guess below overrides --guess).
     #[command(flatten)]
     pub camera: CameraArgs,
+    /// Lens model of the right camera (default: --model), e.g. a fisheye right camera with
+    /// --right-model kannala-brandt4.
+    #[arg(long, value_name = "MODEL")]
+    pub right_model: Option<String>,
     /// Initial intrinsics of the left camera: fx,fy,cx,cy.
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub left_guess: Option<String>,
@@ -70,6 +74,30 @@ impl StereoArgs {
         let camera = self.camera.options()?;
         let mut left = camera.clone();
         let mut right = camera.clone();
+        if let Some(name) = &self.right_model {
+            let model: camera_model::CameraModel = name
+                .parse()
+                .map_err(|e| Failure(format!("--right-model: {e}")))?;
+            if model != camera.model {
+                if self.camera.distortion_guess.is_some() {
+                    return Err(Failure(
+                        "--distortion-guess applies to --model; with a different --right-model give no distortion guess".into(),
+                    ));
+                }
+                right.model = model;
+                right.fixed_distortion.clear();
+                if let Some(names) = &self.camera.fix {
+                    let names: Vec<&str> = names
+                        .split(',')
+                        .map(str::trim)
+                        .filter(|n| !n.is_empty())
+                        .collect();
+                    right
+                        .fix_distortion_by_name(&names)
+                        .map_err(|e| Failure(format!("--fix for the right camera: {e}")))?;
+                }
+            }
+        }
         if let Some(text) = &self.left_guess {
             left.intrinsic_guess = Some(intrinsics(text, "--left-guess")?);
         }

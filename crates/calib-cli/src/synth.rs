@@ -83,21 +83,7 @@ pub struct SynthArgs {
 }
 
 /// The default true distortion of a model for synthetic data (see `SynthArgs::distortion`).
-pub fn default_distortion(model: CameraModel) -> Vec<f64> {
-    let base = [-0.2, 0.05, 0.001, -0.0005];
-    match model {
-        CameraModel::BrownConrady4 => base.to_vec(),
-        CameraModel::BrownConrady5 => [&base[..], &[0.02]].concat(),
-        CameraModel::Rational8 => [&base[..], &[0.02, 0.1, 0.01, 0.002]].concat(),
-        CameraModel::ThinPrism12 => [
-            &base[..],
-            &[0.02, 0.1, 0.01, 0.002],
-            &[0.001, -0.0005, 0.0008, 0.0002],
-        ]
-        .concat(),
-        CameraModel::KannalaBrandt4 => vec![0.05, -0.01, 0.003, -0.0005],
-    }
-}
+pub use calib_core::synthetic::default_distortion;
 
 fn model_and_distortion(
     model: &str,

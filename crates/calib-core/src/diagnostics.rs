@@ -32,6 +32,18 @@ pub const PRINCIPAL_POINT_OFFSET: f64 = 0.2;
 /// point whose 3-sigma uncertainty exceeds this fraction of the image, gets a warning.
 pub const POOR_RELATIVE_UNCERTAINTY: f64 = 0.1;
 
+/// Parameters whose correlation exceeds this in magnitude are reported as not separately
+/// determined by the data.
+pub const MAX_CORRELATION: f64 = 0.999;
+
+/// A distortion coefficient whose 3-sigma uncertainty exceeds this is not determined: no real
+/// lens needs a coefficient known only to within +-1.
+pub const MAX_DISTORTION_UNCERTAINTY: f64 = 1.0;
+
+/// The lens model must be one-to-one this far beyond the image border (a fraction of the
+/// border's distance from the principal point).
+pub const VALIDITY_MARGIN: f64 = 0.05;
+
 /// A view whose RMS exceeds this multiple of the camera's median view RMS (and 1 px) gets a
 /// warning.
 pub const INCONSISTENT_VIEW_FACTOR: f64 = 5.0;
@@ -183,6 +195,59 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                     spec.image_size.height
                 ),
             ));
+        }
+        let validity = camera.validity(spec.image_size.width, spec.image_size.height);
+        if !validity.covers_image(VALIDITY_MARGIN) {
+            warnings.push(Warning::new(
+                WarningCode::ModelInvalid,
+                format!(
+                    "{who}the {} lens model stops being one-to-one {:.0} px from the principal point, inside the image (its corners are {:.0} px away): pixels beyond have no unique direction; use a model with fewer terms or add views with the board near the image corners",
+                    camera.model, validity.valid_radius_px, validity.image_radius_px
+                ),
+            ));
+        }
+        if let Some(cov) = &solution.camera_covariance[c] {
+            let names = spec.param_names();
+            let free: Vec<usize> = (0..names.len())
+                .filter(|i| !spec.fixed.contains(i))
+                .collect();
+            let mut loose: Vec<&str> = Vec::new();
+            for (a, &i) in free.iter().enumerate() {
+                for &j in &free[a + 1..] {
+                    let r = cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt();
+                    if r.abs() > MAX_CORRELATION {
+                        loose.extend([names[i], names[j]]);
+                    }
+                }
+                if i >= 4 && 3.0 * cov[(i, i)].max(0.0).sqrt() > MAX_DISTORTION_UNCERTAINTY {
+                    loose.push(names[i]);
+                }
+            }
+            loose.extend(
+                solution
+                    .undetermined
+                    .iter()
+                    .filter(|(camera, _)| *camera == c)
+                    .map(|&(_, i)| names[i]),
+            );
+            loose.sort_by_key(|n| names.iter().position(|m| m == n));
+            loose.dedup();
+            if !loose.is_empty() {
+                let views = problem
+                    .observations
+                    .iter()
+                    .filter(|o| o.camera == c)
+                    .count();
+                warnings.push(Warning::new(
+                    WarningCode::PoorlyDetermined,
+                    format!(
+                        "{who}{}: {} {} not determined by {views} views (correlation above {MAX_CORRELATION} or 3 sigma above {MAX_DISTORTION_UNCERTAINTY}); use a model with fewer terms (e.g. brown-conrady5 or brown-conrady4) or add views covering the image",
+                        camera.model,
+                        loose.join(", "),
+                        if loose.len() > 1 { "are" } else { "is" }
+                    ),
+                ));
+            }
         }
         let std = &solution.camera_std[c];
         if std.iter().any(|&s| s > 0.0) {

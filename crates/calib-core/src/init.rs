@@ -137,6 +137,9 @@ pub enum StartMethod {
     /// The closed form was unusable or not at the minimum of the start's reprojection error: a
     /// one-dimensional search over the focal length found the start.
     FocalSearch,
+    /// A fisheye lens: a one-dimensional search over the focal length of an equidistant camera,
+    /// poses from the points mapped to the pinhole plane ([`fisheye_search`]).
+    FisheyeSearch,
 }
 
 impl std::str::FromStr for StartMethod {
@@ -147,6 +150,7 @@ impl std::str::FromStr for StartMethod {
             StartMethod::ClosedForm(FocalInit::Bouguet),
             StartMethod::ClosedForm(FocalInit::LeastSquares),
             StartMethod::FocalSearch,
+            StartMethod::FisheyeSearch,
         ]
         .into_iter()
         .find(|m| m.name() == s)
@@ -156,13 +160,14 @@ impl std::str::FromStr for StartMethod {
 
 impl StartMethod {
     /// The name in result files: `given`, `closed-form-bouguet`, `closed-form-least-squares`,
-    /// `focal-search`.
+    /// `focal-search`, `fisheye-focal-search`.
     pub fn name(self) -> &'static str {
         match self {
             StartMethod::Given => "given",
             StartMethod::ClosedForm(FocalInit::Bouguet) => "closed-form-bouguet",
             StartMethod::ClosedForm(FocalInit::LeastSquares) => "closed-form-least-squares",
             StartMethod::FocalSearch => "focal-search",
+            StartMethod::FisheyeSearch => "fisheye-focal-search",
         }
     }
 }
@@ -249,15 +254,92 @@ pub struct ScoringCamera {
 /// the profile of the calibration's cost along the focal length, on the scoring subset.
 /// Infinite if some view has no pose or the solve fails.
 pub fn focal_score(f: f64, cx: f64, cy: f64, camera: &ScoringCamera, views: &[ScoringView]) -> f64 {
-    let model = camera.model;
     let k = Intrinsics::new(f, f, cx, cy);
-    let mut frames = Vec::with_capacity(views.len());
-    for v in views {
-        match initial_pose(&v.h, &k, &v.object) {
-            Some(p) => frames.push(p),
-            None => return f64::INFINITY,
+    let frames: Option<Vec<Pose>> = views
+        .iter()
+        .map(|v| initial_pose(&v.h, &k, &v.object))
+        .collect();
+    match frames {
+        Some(frames) => score_from_poses(k, camera, views, frames),
+        None => f64::INFINITY,
+    }
+}
+
+/// Largest angle off the optical axis (radians, 70 degrees) of the points a fisheye start maps to
+/// the pinhole plane: `tan(theta)` stretches points beyond it too much to fit a homography well.
+pub const FISHEYE_START_MAX_ANGLE: f64 = 70.0 * std::f64::consts::PI / 180.0;
+
+/// The board pose of a view seen through an equidistant camera with focal length `f` and
+/// principal point `(cx, cy)` (no distortion): each pixel at radius `r` from the principal point
+/// is the direction at `theta = r / f` off the axis; the points with `theta` below
+/// [`FISHEYE_START_MAX_ANGLE`] are mapped to the pinhole plane (`tan(theta)` along their
+/// direction), a homography from the board to that plane is fitted (at least 6 points), and the
+/// pose follows from it with `K = I`. `None` if too few points qualify or the fit fails.
+pub fn fisheye_pose(
+    f: f64,
+    cx: f64,
+    cy: f64,
+    object: &[Point3<f64>],
+    image: &[Vector2<f64>],
+) -> Option<Pose> {
+    let (mut board, mut plane) = (Vec::new(), Vec::new());
+    for (x, m) in object.iter().zip(image) {
+        let d = Vector2::new(m.x - cx, m.y - cy);
+        let r = d.norm();
+        let theta = r / f;
+        if theta < FISHEYE_START_MAX_ANGLE {
+            let scale = if r > 0.0 { theta.tan() / r } else { 1.0 / f };
+            board.push(Point2::new(x.x, x.y));
+            plane.push(Point2::from(d * scale));
         }
     }
+    if board.len() < 6 {
+        return None;
+    }
+    let h = homography::dlt(&board, &plane).ok()?;
+    let kept: Vec<Point3<f64>> = board.iter().map(|p| Point3::new(p.x, p.y, 0.0)).collect();
+    initial_pose(&h, &Intrinsics::new(1.0, 1.0, 0.0, 0.0), &kept)
+}
+
+/// [`focal_score`] for a fisheye lens: the poses come from [`fisheye_pose`] at each candidate
+/// focal length instead of the pixel homographies.
+pub fn fisheye_score(
+    f: f64,
+    cx: f64,
+    cy: f64,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+) -> f64 {
+    let frames: Option<Vec<Pose>> = views
+        .iter()
+        .map(|v| fisheye_pose(f, cx, cy, &v.object, &v.image))
+        .collect();
+    match frames {
+        Some(frames) => score_from_poses(Intrinsics::new(f, f, cx, cy), camera, views, frames),
+        None => f64::INFINITY,
+    }
+}
+
+/// The focal length of a fisheye lens that minimizes [`fisheye_score`], searched like
+/// [`focal_search`]. `None` if no focal length gives a finite score.
+pub fn fisheye_search(
+    image_size: ImageSize,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+) -> Option<f64> {
+    let (cx, cy) = image_size.centre();
+    minimize_over_focal(image_size, |f| fisheye_score(f, cx, cy, camera, views))
+}
+
+/// The calibration's cost profile at intrinsics `k` (focal lengths held) from the given start
+/// poses of the scoring views.
+fn score_from_poses(
+    k: Intrinsics,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+    frames: Vec<Pose>,
+) -> f64 {
+    let model = camera.model;
     let held = camera;
     let mut camera = CameraSpec::new(
         "scoring",
@@ -312,10 +394,17 @@ pub fn focal_search(
     views: &[ScoringView],
 ) -> Option<f64> {
     let (cx, cy) = image_size.centre();
+    minimize_over_focal(image_size, |f| focal_score(f, cx, cy, camera, views))
+}
+
+/// Minimizes `score(f)` over focal lengths: a log-spaced grid from 0.05 to 20 image
+/// half-diagonals (6 points per decade), then a golden-section search on `log f` between the
+/// best grid point's neighbours.
+fn minimize_over_focal(image_size: ImageSize, score: impl Fn(f64) -> f64) -> Option<f64> {
     let d = image_size.half_diagonal().max(1.0);
     let (lo, hi) = ((0.05 * d).ln(), (20.0 * d).ln());
     let steps = ((hi - lo) / std::f64::consts::LN_10 * 6.0).ceil() as usize;
-    let score = |log_f: f64| focal_score(log_f.exp(), cx, cy, camera, views);
+    let score = |log_f: f64| score(log_f.exp());
     let grid: Vec<(f64, f64)> = (0..=steps)
         .map(|i| {
             let x = lo + (hi - lo) * i as f64 / steps as f64;
@@ -331,7 +420,6 @@ pub fn focal_search(
         grid[best.saturating_sub(1)].0,
         grid[(best + 1).min(steps)].0,
     );
-    // Golden-section search on log f.
     let ratio = (5f64.sqrt() - 1.0) / 2.0;
     let (mut c, mut e) = (b - ratio * (b - a), a + ratio * (b - a));
     let (mut sc, mut se) = (score(c), score(e));

@@ -99,6 +99,21 @@ struct CameraEstimateJson {
     rms: f64,
     #[serde(default)]
     num_points: usize,
+    /// Written for the reader, recomputed from the camera: not read back.
+    #[serde(default, skip_deserializing)]
+    validity: Option<ValidityJson>,
+}
+
+/// Where the lens model is one-to-one (`camera_model::validity`), in result files.
+#[derive(Serialize, Deserialize)]
+struct ValidityJson {
+    /// Pixel radius from the principal point where the model stops being one-to-one; `null`:
+    /// valid as far as it was checked (4 image radii, or the projection's range).
+    valid_radius_px: Option<f64>,
+    /// Distance to the farthest image corner.
+    image_radius_px: f64,
+    /// Valid over the whole image with a 5% margin.
+    covers_image: bool,
 }
 
 /// `{name: value}` in the model's coefficient order.
@@ -139,6 +154,14 @@ impl From<CameraEstimate> for CameraEstimateJson {
             fixed_parameters: e.fixed_parameters,
             rms: e.rms,
             num_points: e.num_points,
+            validity: Some({
+                let v = e.camera.validity(e.image_size.width, e.image_size.height);
+                ValidityJson {
+                    valid_radius_px: v.valid_radius_px.is_finite().then_some(v.valid_radius_px),
+                    image_radius_px: v.image_radius_px,
+                    covers_image: v.covers_image(crate::diagnostics::VALIDITY_MARGIN),
+                }
+            }),
         }
     }
 }
@@ -236,11 +259,13 @@ pub struct StageTimes {
 }
 
 /// Appends the camera lines of a human summary (focal length, principal point, distortion, each
-/// with +- 3 sigma, and the parameters held fixed), every line prefixed with `indent`.
+/// with +- 3 sigma, the parameters held fixed, and where the lens model is one-to-one over a
+/// `image_size` image), every line prefixed with `indent`.
 pub fn write_camera_summary(
     out: &mut String,
     indent: &str,
     camera: &AnyCamera,
+    image_size: ImageSize,
     intrinsics_std: &[f64; 4],
     distortion_std: &[f64],
     fixed_parameters: &[String],
@@ -283,6 +308,16 @@ pub fn write_camera_summary(
     if !fixed_parameters.is_empty() {
         let _ = writeln!(out, "{indent}held fixed: {}", fixed_parameters.join(", "));
     }
+    let v = camera.validity(image_size.width, image_size.height);
+    if v.covers_image(crate::diagnostics::VALIDITY_MARGIN) {
+        let _ = writeln!(out, "{indent}lens model one-to-one over the whole image");
+    } else {
+        let _ = writeln!(
+            out,
+            "{indent}lens model one-to-one only within {:.0} px of the principal point (image corners at {:.0} px)",
+            v.valid_radius_px, v.image_radius_px
+        );
+    }
 }
 
 impl CameraEstimate {
@@ -292,6 +327,7 @@ impl CameraEstimate {
             out,
             indent,
             &self.camera,
+            self.image_size,
             &self.intrinsics_std,
             &self.distortion_std,
             &self.fixed_parameters,

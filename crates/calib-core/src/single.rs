@@ -7,13 +7,16 @@
 use crate::data::{ImageSize, View};
 use crate::diagnostics::{check_inside_image, duplicate_views};
 use crate::error::{CalibrationError, PointKind};
-use crate::init::{ScoringCamera, StartMethod, initial_pose, start_intrinsics};
+use crate::init::{
+    ScoringCamera, StartMethod, fisheye_pose, fisheye_search, initial_pose, scoring_views,
+    start_intrinsics,
+};
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
 use crate::warnings::{Warning, WarningCode};
-use camera_model::{AnyCamera, CameraModel, Pose};
-use nalgebra::{Matrix3, Point2, Point3};
+use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
+use nalgebra::{Matrix3, Point2, Point3, Vector2};
 use std::time::{Duration, Instant};
 
 /// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
@@ -198,13 +201,26 @@ pub fn prepare_camera(
                     .iter()
                     .map(|p| Point2::new(p.x, p.y))
                     .collect();
-                homography::estimate_robust(
-                    &object,
-                    &view.image_points,
-                    &options.homography,
-                    &options.robust_homography,
-                )
-                .map_err(|source| CalibrationError::Homography {
+                // Through a fisheye lens a board is far from a homography of its pixels: the
+                // robust fit would call its edge corners outliers. Its start does not use the
+                // pixel homography's inliers; the model's outlier rejection still applies.
+                let estimate = if options.model.is_fisheye() {
+                    homography::estimate(&object, &view.image_points, &options.homography).map(
+                        |e| homography::RobustEstimate {
+                            estimate: e,
+                            inliers: vec![true; object.len()],
+                            num_inliers: object.len(),
+                        },
+                    )
+                } else {
+                    homography::estimate_robust(
+                        &object,
+                        &view.image_points,
+                        &options.homography,
+                        &options.robust_homography,
+                    )
+                };
+                estimate.map_err(|source| CalibrationError::Homography {
                     view: index,
                     source,
                 })
@@ -307,8 +323,24 @@ pub fn prepare_camera(
         .collect();
     let homographies_done = Instant::now();
 
+    let fisheye = options.model.is_fisheye();
     let (intrinsics, start_method) = match options.intrinsic_guess {
         Some(guess) => (guess, StartMethod::Given),
+        // A fisheye lens is far from a pinhole: search the focal length of an equidistant camera.
+        None if fisheye => {
+            let scoring = ScoringCamera {
+                model: options.model,
+                fixed: fixed_camera_components(options, used.len()),
+            };
+            let views = scoring_views(&homographies, &start_views);
+            let f = fisheye_search(image_size, &scoring, &views).ok_or_else(|| {
+                CalibrationError::Initialization {
+                    reason: "no focal length of an equidistant (fisheye) camera explains the views: are the points and the image size right?".into(),
+                }
+            })?;
+            let (cx, cy) = image_size.centre();
+            (Intrinsics::new(f, f, cx, cy), StartMethod::FisheyeSearch)
+        }
         None => {
             let scoring = ScoringCamera {
                 model: options.model,
@@ -335,24 +367,32 @@ pub fn prepare_camera(
     let initial = AnyCamera::new(options.model, intrinsics, distortion)
         .map_err(|e| CalibrationError::InvalidOption(e.to_string()))?;
     let mut initial_poses = Vec::with_capacity(used.len());
-    for ((&(index, view), h), (object, _)) in used.iter().zip(&homographies).zip(&start_views) {
-        let pose = initial_pose(h, &intrinsics, object).ok_or_else(|| {
-            CalibrationError::Initialization {
+    for ((&(index, view), h), (object, image)) in used.iter().zip(&homographies).zip(&start_views) {
+        let fisheye_start = fisheye
+            .then(|| {
+                let pixels: Vec<Vector2<f64>> = image.iter().map(|p| p.coords).collect();
+                let k = &intrinsics;
+                fisheye_pose(k.fx, k.cx, k.cy, object, &pixels)
+            })
+            .flatten();
+        let pose = fisheye_start
+            .or_else(|| initial_pose(h, &intrinsics, object))
+            .ok_or_else(|| CalibrationError::Initialization {
                 reason: format!("view {index}: no pose from its homography"),
-            }
-        })?;
+            })?;
+        // A fisheye lens sees points beside and behind its optical centre's plane.
         if let Some(point) = view
             .object_points
             .iter()
             .position(|x| pose.transform_point(x).z <= 0.0)
-            .filter(|_| object.len() == view.object_points.len())
+            .filter(|_| object.len() == view.object_points.len() && !fisheye)
         {
             return Err(CalibrationError::PointBehindCamera { view: index, point });
         }
         initial_poses.push(pose);
     }
     let fixed = fixed_camera_components(options, used.len());
-    Ok(PreparedCamera {
+    let mut prepared = PreparedCamera {
         image_size,
         aspect_ratio: options
             .fix_aspect_ratio
@@ -382,10 +422,61 @@ pub fn prepare_camera(
         fixed,
         times: (homographies_done - start, homographies_done.elapsed()),
         warnings,
-    })
+    };
+    if options.distortion_guess.is_none() {
+        prepared.start_from_simpler_model();
+    }
+    Ok(prepared)
+}
+
+/// The model a many-term model starts from: its terms in OpenCV's order begin with those of
+/// `brown-conrady5`, so that model's solution is a point of the richer model's space.
+fn simpler_model(model: CameraModel) -> Option<CameraModel> {
+    match model {
+        CameraModel::Rational8 | CameraModel::ThinPrism12 => Some(CameraModel::BrownConrady5),
+        _ => None,
+    }
 }
 
 impl PreparedCamera {
+    /// For a many-term model (rational, thin prism), replaces the start by the solution of the
+    /// same views with `brown-conrady5` (the extra terms zero): from the closed form, the extra
+    /// terms' freedom lets the first iterations wander into another minimum (seen on 1 problem
+    /// in 60 of the convergence population); from the simpler model's minimum they only refine
+    /// it. Keeps the start as it is if that solve fails.
+    fn start_from_simpler_model(&mut self) {
+        let model = self.initial.model;
+        let Some(simple) = simpler_model(model) else {
+            return;
+        };
+        let n = simple.num_params();
+        let mut staged = self.clone();
+        let Ok(camera) = AnyCamera::new(
+            simple,
+            self.initial.intrinsics,
+            self.initial.distortion[..simple.num_distortion_params()].to_vec(),
+        ) else {
+            return;
+        };
+        staged.initial = camera;
+        staged.fixed.retain(|&i| i < n);
+        let options = crate::SolveOptions {
+            compute_uncertainty: false,
+            outliers: None,
+            ..crate::SolveOptions::default()
+        };
+        let Ok(solution) = crate::solve(&staged.into_problem("start"), &options) else {
+            return;
+        };
+        let solved = &solution.cameras[0];
+        let mut distortion = self.initial.distortion.clone();
+        distortion[..solved.distortion.len()].copy_from_slice(&solved.distortion);
+        if let Ok(camera) = AnyCamera::new(model, solved.intrinsics, distortion) {
+            self.initial = camera;
+            self.initial_poses = solution.frames;
+        }
+    }
+
     /// The camera as a [`CameraSpec`] named `name`.
     pub fn camera_spec(&self, name: &str) -> CameraSpec {
         let mut spec = CameraSpec::new(name, self.image_size, self.initial.clone());

@@ -96,6 +96,9 @@ pub struct JointSolution {
     pub initial_cost: f64,
     /// What deserves attention: the solver's iteration limit, rejected outliers.
     pub warnings: Vec<Warning>,
+    /// `(camera, component)` of the camera-block components (distortion terms) along directions
+    /// the data does not determine; their standard deviations are lower bounds.
+    pub undetermined: Vec<(usize, usize)>,
     /// Per camera, the error norms of an evenly strided sample of the user-weighted points
     /// (for the noise level; empty without outlier rejection).
     pub(crate) noise_sample: Vec<Vec<f64>>,
@@ -620,12 +623,40 @@ fn solve_with<R: RotationParameterization>(
     let all_rows = solver.problem().num_residuals();
     let used_rows = 2 * used;
     let dof_scale = (all_rows - free) as f64 / (used_rows - free) as f64;
+    let mut undetermined = Vec::new();
     let covariance = if options.compute_uncertainty {
-        Some(
-            solver
-                .covariance(&cost, &x)
-                .map_err(|e| user_error(problem, &blocks, e))?,
-        )
+        let is_distortion =
+            |&(b, c): &(ParameterBlockId, usize)| c >= 4 && blocks.cameras.contains(&b);
+        match solver.covariance(&cost, &x) {
+            Ok(c) => Some(c),
+            // Distortion terms the data does not separate (a rational model on a narrow lens):
+            // a result with those terms reported, not a refusal of the whole calibration.
+            Err(CovarianceError::RankDeficient { weakest, .. })
+                if !weakest.is_empty() && weakest.iter().all(is_distortion) =>
+            {
+                let c = solver
+                    .covariance_floored(&cost, &x)
+                    .map_err(|e| user_error(problem, &blocks, e))?;
+                if !c.floored.iter().all(is_distortion) {
+                    return Err(user_error(
+                        problem,
+                        &blocks,
+                        CovarianceError::RankDeficient {
+                            rank: 0,
+                            dimension: 0,
+                            weakest: c.floored.clone(),
+                        },
+                    ));
+                }
+                for &(b, component) in &c.floored {
+                    if let Some(camera) = blocks.cameras.iter().position(|&x| x == b) {
+                        undetermined.push((camera, component));
+                    }
+                }
+                Some(c)
+            }
+            Err(e) => return Err(user_error(problem, &blocks, e)),
+        }
     } else {
         None
     };
@@ -792,6 +823,7 @@ fn solve_with<R: RotationParameterization>(
         warnings: Vec::new(),
         noise_sample,
         outlier_candidates,
+        undetermined,
     };
     check_finite(&solution)?;
     Ok(solution)

@@ -124,6 +124,27 @@ pub fn random_pose(
         AxisAngle::matrix(&(Vector3::new(axis_angle.cos(), axis_angle.sin(), 0.0) * tilt));
     let rotation = tilt_rotation * AxisAngle::matrix(&Vector3::new(0.0, 0.0, spin));
     let fill = rng.range(0.35, 0.8);
+    if config.model.is_fisheye() {
+        // Spread the boards over the whole field, out to its edge: a direction up to 90% of the
+        // angle at the image's half-diagonal (equidistant: pixels per radian = f), the board
+        // facing the camera along it and subtending `fill` of the image width in angle.
+        let edge = config.image_size.half_diagonal() / k.fx;
+        let theta = rng.range(0.0, 0.9 * edge).min(0.97 * std::f64::consts::PI);
+        let phi = rng.range(0.0, 2.0 * std::f64::consts::PI);
+        let direction = Vector3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        );
+        let towards = match Vector3::z().cross(&direction).try_normalize(1e-12) {
+            Some(axis) => AxisAngle::matrix(&(axis * theta)),
+            None => nalgebra::Matrix3::identity(),
+        };
+        let angle = (fill * config.image_size.width as f64 / k.fx).min(2.0);
+        let depth = board_width / (2.0 * (angle / 2.0).tan());
+        let rotation = towards * rotation;
+        return Pose::new(rotation, direction * depth - rotation * board_centre);
+    }
     let depth = k.fx * board_width / (fill * config.image_size.width as f64);
     let (w, h) = (
         config.image_size.width as f64,
@@ -267,6 +288,26 @@ pub fn population(seed: u64) -> SyntheticConfig {
         noise_px,
         max_tilt_deg,
         seed: 7_000_000 + seed,
+    }
+}
+
+/// A plausible true distortion of `model` for synthetic data: mild barrel distortion
+/// `k1, k2, p1, p2 = -0.2, 0.05, 0.001, -0.0005`; `brown-conrady5` adds `k3 = 0.02`; `rational8`
+/// adds `k3..k6 = 0.02, 0.1, 0.01, 0.002`; `thin-prism12` adds `s1..s4 = 0.001, -0.0005, 0.0008,
+/// 0.0002`; `kannala-brandt4` is `0.05, -0.01, 0.003, -0.0005`.
+pub fn default_distortion(model: CameraModel) -> Vec<f64> {
+    let base = [-0.2, 0.05, 0.001, -0.0005];
+    match model {
+        CameraModel::BrownConrady4 => base.to_vec(),
+        CameraModel::BrownConrady5 => [&base[..], &[0.02]].concat(),
+        CameraModel::Rational8 => [&base[..], &[0.02, 0.1, 0.01, 0.002]].concat(),
+        CameraModel::ThinPrism12 => [
+            &base[..],
+            &[0.02, 0.1, 0.01, 0.002],
+            &[0.001, -0.0005, 0.0008, 0.0002],
+        ]
+        .concat(),
+        CameraModel::KannalaBrandt4 => vec![0.05, -0.01, 0.003, -0.0005],
     }
 }
 

@@ -35,6 +35,7 @@
 #![deny(missing_docs)]
 
 pub mod calibrate;
+pub mod compare;
 pub mod observations;
 pub mod result;
 pub mod synthetic;
@@ -44,6 +45,7 @@ pub use calib_core::{
 };
 pub use calib_core::{error, init, options};
 pub use calibrate::{calibrate, reproject};
+pub use compare::{ModelComparison, ModelRow, compare_models};
 pub use observations::{ImageSize, Observations, ReadError, View};
 pub use result::{Calibration, CameraEstimate, SkippedView, StageTimes, ViewResult};
 

@@ -225,6 +225,7 @@ impl Calibration {
             &mut out,
             "  ",
             &self.camera,
+            self.image_size,
             &self.intrinsics_std,
             &self.distortion_std,
             &self.fixed_parameters,

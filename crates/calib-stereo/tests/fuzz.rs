@@ -146,7 +146,12 @@ fn apply(file: &Value, m: &Mutation) -> String {
     v.to_string()
 }
 
-const OPTIONAL: [&str; 3] = ["termination_detail", "trial_cost", "gain_ratio"];
+const OPTIONAL: [&str; 4] = [
+    "termination_detail",
+    "trial_cost",
+    "gain_ratio",
+    "valid_radius_px",
+];
 
 fn all_finite(value: &Value, key: &str) -> bool {
     match value {

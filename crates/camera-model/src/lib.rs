@@ -58,6 +58,7 @@ pub mod pose;
 pub mod projection;
 pub mod rotation;
 pub mod undistort;
+pub mod validity;
 
 pub use camera::{Camera, CameraPointJacobians, ProjectionJacobians};
 pub use distortion::{
@@ -75,3 +76,4 @@ pub use rotation::{
     AxisAngle, EulerXyz, RotationKind, RotationParameterization, So3, nearest_rotation, skew,
 };
 pub use undistort::{UndistortOptions, undistort_normalized};
+pub use validity::Validity;

@@ -32,8 +32,8 @@ pub struct RobustOptions {
     /// Inliers of the LMedS fit lie within this many robust standard deviations (default 3).
     pub inlier_factor: f64,
     /// No consensus when the LMedS scale exceeds this fraction of the image points' spread (RMS
-    /// distance from their centroid; default 0.05): lens distortion leaves residuals of a few
-    /// percent at most, mismatched points leave tens of percent.
+    /// distance from their centroid; default 0.15): the distortion of a wide-angle lens leaves
+    /// residuals of up to about 10% of the spread, mismatched points 30% and more.
     pub max_scale_fraction: f64,
     /// Number of four-point samples (default 300: with half the points wrong, the chance that
     /// no sample is outlier-free is `(1 - 1/16)^300 < 1e-8`).
@@ -46,7 +46,7 @@ impl Default for RobustOptions {
             suspicious_factor: 10.0,
             min_threshold_px: 3.0,
             inlier_factor: 3.0,
-            max_scale_fraction: 0.05,
+            max_scale_fraction: 0.15,
             samples: 300,
         }
     }

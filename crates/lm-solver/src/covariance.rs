@@ -126,6 +126,10 @@ pub struct Covariance {
     pub residual_variance: f64,
     /// `m - p`.
     pub degrees_of_freedom: usize,
+    /// Reduced components along directions the data did not determine, when the covariance was
+    /// computed with [`Solver::covariance_floored`] (empty otherwise): their variances are
+    /// lower bounds.
+    pub floored: Vec<(ParameterBlockId, usize)>,
     reduced: ReducedInverse,
     eliminated: Vec<Option<DMatrix<f64>>>,
     roles: Vec<BlockRole>,
@@ -226,6 +230,34 @@ impl Solver {
         x: &[f64],
         blocks: &[ParameterBlockId],
     ) -> Result<Covariance, CovarianceError> {
+        self.covariance_impl(cost_fn, x, blocks, false)
+    }
+
+    /// [`Solver::covariance`], but directions of the reduced system below the rank tolerance are
+    /// kept with their eigenvalue raised to the tolerance (standard deviations a million times
+    /// the best-determined one's, per unit of the scaled parameters) instead of failing, and
+    /// their main components listed in [`Covariance::floored`]: for models whose extra terms the
+    /// data may not separate, where the caller reports them rather than refusing the whole
+    /// result. Only the dense path (up to [`DENSE_COVARIANCE_LIMIT`] reduced parameters) floors;
+    /// beyond it, this is [`Solver::covariance`].
+    pub fn covariance_floored<C: CostFunction>(
+        &mut self,
+        cost_fn: &C,
+        x: &[f64],
+    ) -> Result<Covariance, CovarianceError> {
+        let all: Vec<ParameterBlockId> = (0..self.problem.num_parameter_blocks())
+            .map(ParameterBlockId)
+            .collect();
+        self.covariance_impl(cost_fn, x, &all, true)
+    }
+
+    fn covariance_impl<C: CostFunction>(
+        &mut self,
+        cost_fn: &C,
+        x: &[f64],
+        blocks: &[ParameterBlockId],
+        floor: bool,
+    ) -> Result<Covariance, CovarianceError> {
         let problem = &self.problem;
         if x.len() != problem.num_parameters || x.iter().any(|v| !v.is_finite()) {
             return Err(CovarianceError::InvalidParameters(format!(
@@ -290,18 +322,23 @@ impl Solver {
                     .unwrap_or(0);
                 return Err(CovarianceError::SingularEliminatedBlock { block });
             }
-            // A positive but tiny pivot also means an undetermined block.
+            // A positive but tiny pivot also means an undetermined block. Each squared pivot is
+            // compared with its own diagonal entry (`L_ii^2 / V_ii`, the fraction of the
+            // component's information not explained by the components before it): independent of
+            // the units, where comparing with the largest diagonal would call a pose 2 m away
+            // singular because its rotation and translation entries differ by 1e12 in mm.
             for (local, e) in chunk.elim.clone().enumerate() {
                 let layout = &problem.eliminated[e];
                 let d = layout.dim;
                 let vo = chunk.v_off[local];
-                let max_diag = (0..d)
-                    .map(|i| chunk.v[vo + i * (d + 1)])
-                    .fold(0.0f64, f64::max);
-                let min_pivot = (0..d)
-                    .map(|i| chunk.factor[vo + i * (d + 1)].powi(2))
+                let min_ratio = (0..d)
+                    .map(|i| {
+                        let diag = chunk.v[vo + i * (d + 1)];
+                        let pivot = chunk.factor[vo + i * (d + 1)].powi(2);
+                        if diag > 0.0 { pivot / diag } else { 0.0 }
+                    })
                     .fold(f64::INFINITY, f64::min);
-                if min_pivot <= RANK_TOLERANCE * max_diag {
+                if min_ratio <= RANK_TOLERANCE {
                     return Err(CovarianceError::SingularEliminatedBlock {
                         block: layout.block,
                     });
@@ -322,8 +359,9 @@ impl Solver {
                 }
             }
         }
+        let mut floored = Vec::new();
         let reduced = if dense {
-            self.dense_reduced_inverse()?
+            self.dense_reduced_inverse(floor.then_some(&mut floored))?
         } else {
             self.sparse_reduced_inverse(&damping, &wanted_reduced)?
         };
@@ -391,6 +429,7 @@ impl Solver {
         Ok(Covariance {
             residual_variance: sigma2,
             degrees_of_freedom: m - p,
+            floored,
             reduced,
             eliminated,
             roles: problem.roles.clone(),
@@ -400,7 +439,10 @@ impl Solver {
     }
 
     /// `S^-1` (unscaled) from the dense partial Schur complements, after a rank check.
-    fn dense_reduced_inverse(&self) -> Result<ReducedInverse, CovarianceError> {
+    fn dense_reduced_inverse(
+        &self,
+        floored: Option<&mut Vec<(ParameterBlockId, usize)>>,
+    ) -> Result<ReducedInverse, CovarianceError> {
         let problem = &self.problem;
         let n = problem.reduced_dim;
         let mut s = DMatrix::<f64>::zeros(n, n);
@@ -421,7 +463,28 @@ impl Solver {
                 .iter()
                 .filter(|&&v| v > RANK_TOLERANCE * max_ev)
                 .count();
-            if rank < k || !max_ev.is_finite() {
+            let mut eigenvalues = eigen.eigenvalues.clone();
+            if let Some(floored) = floored
+                && max_ev.is_finite()
+                && max_ev > 0.0
+                && rank < k
+            {
+                let floor = RANK_TOLERANCE * max_ev;
+                for (j, v) in eigenvalues.iter_mut().enumerate() {
+                    if *v <= floor {
+                        *v = floor;
+                        let vector = eigen.eigenvectors.column(j);
+                        let largest = vector.amax();
+                        floored.extend(
+                            (0..k)
+                                .filter(|&i| vector[i].abs() * 3.0 >= largest)
+                                .map(|i| reduced_component(problem, free[i])),
+                        );
+                    }
+                }
+                floored.sort_unstable_by_key(|&(b, c)| (b.0, c));
+                floored.dedup();
+            } else if rank < k || !max_ev.is_finite() {
                 let weakest_index = eigen.eigenvalues.imin();
                 let vector = eigen.eigenvectors.column(weakest_index);
                 let largest = vector.amax();
@@ -435,7 +498,7 @@ impl Solver {
                     weakest,
                 });
             }
-            let inv_ev = DMatrix::from_diagonal(&eigen.eigenvalues.map(|v| 1.0 / v));
+            let inv_ev = DMatrix::from_diagonal(&eigenvalues.map(|v| 1.0 / v));
             let inv_scaled = &eigen.eigenvectors * inv_ev * eigen.eigenvectors.transpose();
             for i in 0..k {
                 for j in 0..k {

@@ -1,0 +1,207 @@
+//! Choosing a lens model: fit each candidate, check its validity, and cross-validate it.
+//!
+//! A model with more terms always reaches a lower RMS on the views it was fitted to; whether the
+//! terms describe the lens or the noise shows on views it was not fitted to. Like mrcal, each
+//! model is fitted on half of the views (the even-numbered ones, then the odd-numbered ones) and
+//! evaluated on the other half: the camera is held at the fitted values and only the held-out
+//! views' poses are estimated; the cross-validated RMS is over both halves' held-out points. The
+//! recommendation is the model with the fewest parameters whose cross-validated RMS is within
+//! [`CV_TOLERANCE`] of the best and which is valid (one-to-one) over the image.
+
+use crate::calibrate::calibrate;
+use crate::observations::Observations;
+use calib_core::warnings::Warning;
+use calib_core::{CalibrationError, CalibrationOptions};
+use camera_model::CameraModel;
+use serde::Serialize;
+use std::fmt::Write;
+
+/// A model's cross-validated RMS within this fraction of the best counts as equally good (the
+/// held-out RMS of two fits of the same adequate model differ by about this much on 10 to 30
+/// views).
+pub const CV_TOLERANCE: f64 = 0.02;
+
+/// The models compared by default, simplest first.
+pub const MODELS: [CameraModel; 5] = [
+    CameraModel::BrownConrady4,
+    CameraModel::BrownConrady5,
+    CameraModel::KannalaBrandt4,
+    CameraModel::Rational8,
+    CameraModel::ThinPrism12,
+];
+
+/// One model's row of the comparison.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelRow {
+    /// The lens model.
+    pub model: CameraModel,
+    /// Number of camera parameters (`fx, fy, cx, cy` and the distortion).
+    pub parameters: usize,
+    /// RMS on all views (pixels), or `None` if the calibration failed.
+    pub rms: Option<f64>,
+    /// Cross-validated RMS (pixels): fitted on one half of the views, evaluated on the other.
+    pub cross_validated_rms: Option<f64>,
+    /// The model is one-to-one over the whole image.
+    pub valid_over_image: bool,
+    /// The full calibration's warnings.
+    pub warnings: Vec<Warning>,
+    /// Why the calibration failed, if it did.
+    pub error: Option<String>,
+}
+
+/// The comparison of lens models on one camera's views.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelComparison {
+    /// One row per model, in the order given.
+    pub rows: Vec<ModelRow>,
+    /// The recommended model, if any calibrated.
+    pub recommended: Option<CameraModel>,
+}
+
+/// Views `keep(i)` of `observations`.
+fn subset(observations: &Observations, keep: impl Fn(usize) -> bool) -> Observations {
+    Observations {
+        image_size: observations.image_size,
+        views: observations
+            .views
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, v)| v.clone())
+            .collect(),
+    }
+}
+
+/// Sum of squared errors and point count of `test` with the camera of `options` held fixed.
+fn held_out(
+    train: &Observations,
+    test: &Observations,
+    options: &CalibrationOptions,
+) -> Result<(f64, usize), CalibrationError> {
+    let fitted = calibrate(train, options)?;
+    let mut fixed = options.clone();
+    fixed.intrinsic_guess = Some(fitted.camera.intrinsics);
+    fixed.distortion_guess = Some(fitted.camera.distortion.clone());
+    fixed.fix_focal_length = true;
+    fixed.fix_principal_point = true;
+    fixed.fix_aspect_ratio = false;
+    fixed.fixed_distortion = (0..options.model.num_distortion_params()).collect();
+    fixed.compute_uncertainty = false;
+    // The raw held-out error: rejecting points would flatter a model that misfits them.
+    fixed.outliers = None;
+    let evaluated = calibrate(test, &fixed)?;
+    Ok((
+        evaluated.rms * evaluated.rms * evaluated.num_points as f64,
+        evaluated.num_points,
+    ))
+}
+
+/// Compares `models` on `observations` with `options` (its `model` is replaced by each
+/// candidate). Needs at least 4 views for the cross-validation; fewer give rows without it.
+pub fn compare_models(
+    observations: &Observations,
+    options: &CalibrationOptions,
+    models: &[CameraModel],
+) -> ModelComparison {
+    let even = subset(observations, |i| i % 2 == 0);
+    let odd = subset(observations, |i| i % 2 == 1);
+    let rows: Vec<ModelRow> = models
+        .iter()
+        .map(|&model| {
+            let mut o = options.clone();
+            o.model = model;
+            o.fixed_distortion
+                .retain(|&i| i < model.num_distortion_params());
+            o.distortion_guess = None;
+            let full = calibrate(observations, &o);
+            let cross_validated_rms = (observations.views.len() >= 4)
+                .then(|| {
+                    let a = held_out(&even, &odd, &o).ok()?;
+                    let b = held_out(&odd, &even, &o).ok()?;
+                    Some(((a.0 + b.0) / (a.1 + b.1).max(1) as f64).sqrt())
+                })
+                .flatten();
+            match full {
+                Ok(r) => {
+                    let size = r.image_size;
+                    ModelRow {
+                        model,
+                        parameters: model.num_params(),
+                        rms: Some(r.rms),
+                        cross_validated_rms,
+                        valid_over_image: r
+                            .camera
+                            .validity(size.width, size.height)
+                            .covers_image(calib_core::diagnostics::VALIDITY_MARGIN),
+                        warnings: r.warnings,
+                        error: None,
+                    }
+                }
+                Err(e) => ModelRow {
+                    model,
+                    parameters: model.num_params(),
+                    rms: None,
+                    cross_validated_rms,
+                    valid_over_image: false,
+                    warnings: Vec::new(),
+                    error: Some(e.to_string()),
+                },
+            }
+        })
+        .collect();
+    let score = |r: &ModelRow| r.cross_validated_rms.or(r.rms);
+    let best = rows
+        .iter()
+        .filter(|r| r.valid_over_image)
+        .filter_map(score)
+        .fold(f64::INFINITY, f64::min);
+    let recommended = rows
+        .iter()
+        .filter(|r| {
+            r.valid_over_image && score(r).is_some_and(|s| s <= best * (1.0 + CV_TOLERANCE))
+        })
+        .min_by_key(|r| r.parameters)
+        .map(|r| r.model);
+    ModelComparison { rows, recommended }
+}
+
+impl ModelComparison {
+    /// The comparison as a table.
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:<16} {:>6} {:>10} {:>14} {:>8} {:>9}",
+            "model", "params", "RMS px", "cross-val px", "valid", "warnings"
+        );
+        let px = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.5}"));
+        for r in &self.rows {
+            let _ = writeln!(
+                out,
+                "{:<16} {:>6} {:>10} {:>14} {:>8} {:>9}{}",
+                r.model.name(),
+                r.parameters,
+                px(r.rms),
+                px(r.cross_validated_rms),
+                if r.valid_over_image { "yes" } else { "no" },
+                r.warnings.len(),
+                r.error
+                    .as_ref()
+                    .map_or(String::new(), |e| format!("  failed: {e}"))
+            );
+        }
+        match self.recommended {
+            Some(m) => {
+                let _ = writeln!(
+                    out,
+                    "recommended: {m} (the fewest parameters among the valid models whose cross-validated RMS is within {:.0}% of the best)",
+                    100.0 * CV_TOLERANCE
+                );
+            }
+            None => {
+                let _ = writeln!(out, "no model is valid over the image");
+            }
+        }
+        out
+    }
+}

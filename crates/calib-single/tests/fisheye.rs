@@ -1,0 +1,102 @@
+//! Fisheye lenses (kannala-brandt4 on the equidistant projection): the start searches the focal
+//! length of an equidistant camera (`init::fisheye_search`) and converges on fields of view from
+//! 100 to 190 degrees, boards spread out to the edge of the field.
+
+use calib_core::synthetic::SyntheticConfig;
+use calib_single::synthetic::generate;
+use calib_single::{CalibrationOptions, ImageSize, calibrate};
+use camera_model::{CameraModel, Intrinsics};
+use lm_solver::Rng;
+
+/// A random fisheye problem: diagonal field of view `fov_deg`, 1280x960 image.
+fn fisheye(seed: u64, fov_deg: f64) -> SyntheticConfig {
+    let mut rng = Rng::new(0xF15E_0000 + seed);
+    let size = ImageSize::new(1280, 960);
+    let f = size.half_diagonal() / (fov_deg.to_radians() / 2.0);
+    let (cx, cy) = size.centre();
+    SyntheticConfig {
+        image_size: size,
+        model: CameraModel::KannalaBrandt4,
+        intrinsics: Intrinsics::new(
+            f,
+            f * rng.range(0.99, 1.01),
+            cx + rng.range(-20.0, 20.0),
+            cy + rng.range(-20.0, 20.0),
+        ),
+        distortion: vec![
+            rng.range(-0.05, 0.05),
+            rng.range(-0.01, 0.01),
+            rng.range(-0.003, 0.003),
+            rng.range(-0.0005, 0.0005),
+        ],
+        board_cols: 9,
+        board_rows: 6,
+        square: 30.0,
+        views: 6 + (rng.uniform() * 20.0) as usize,
+        noise_px: rng.range(0.1, 0.5),
+        max_tilt_deg: rng.range(20.0, 60.0),
+        seed: 9_000_000 + seed,
+    }
+}
+
+#[test]
+fn fisheye_lenses_converge_from_100_to_190_degrees() {
+    let mut options = CalibrationOptions::default();
+    options.model = CameraModel::KannalaBrandt4;
+    let (mut at_minimum, mut widest) = (0, 0.0f64);
+    let problems = 60;
+    for seed in 0..problems {
+        let fov = 100.0 + 90.0 * seed as f64 / (problems - 1) as f64;
+        let config = fisheye(seed, fov);
+        let set = generate(&config).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        // The widest angle off the axis that the boards reach.
+        for (view, pose) in set.observations.views.iter().zip(&set.poses) {
+            for x in &view.object_points {
+                let s = pose.transform_point(x);
+                widest = widest.max(s.xy().norm().atan2(s.z).to_degrees());
+            }
+        }
+        let mut truth = options.clone();
+        truth.intrinsic_guess = Some(set.camera.intrinsics);
+        truth.distortion_guess = Some(set.camera.distortion.clone());
+        let reference = calibrate(&set.observations, &truth).unwrap();
+        let result = calibrate(&set.observations, &options)
+            .unwrap_or_else(|e| panic!("seed {seed} (fov {fov:.0}): {e}"));
+        assert!(
+            result.solver.termination.is_converged(),
+            "seed {seed} (fov {fov:.0}): {}",
+            result.solver.termination
+        );
+        assert!(
+            result.rms_all_points <= reference.rms_all_points + 1e-5,
+            "seed {seed} (fov {fov:.0}): rms {} vs {} from the truth (start f {:.1}, true {:.1})",
+            result.rms_all_points,
+            reference.rms_all_points,
+            result.initial_intrinsics.fx,
+            config.intrinsics.fx
+        );
+        assert_eq!(result.initial_method.name(), "fisheye-focal-search");
+        at_minimum += 1;
+    }
+    println!("{at_minimum}/{problems} at the minimum; boards reach {widest:.1} deg off the axis");
+    assert!(widest > 75.0, "{widest}");
+}
+
+#[test]
+fn noise_free_fisheye_data_recovers_the_camera() {
+    let mut config = fisheye(3, 160.0);
+    config.noise_px = 0.0;
+    let set = generate(&config).unwrap();
+    let mut options = CalibrationOptions::default();
+    options.model = CameraModel::KannalaBrandt4;
+    let result = calibrate(&set.observations, &options).unwrap();
+    let (a, b) = (result.camera.params(), set.camera.params());
+    for i in 0..8 {
+        assert!(
+            (a[i] - b[i]).abs() <= 1e-8 * b[i].abs().max(1.0),
+            "parameter {i}: {} vs {}",
+            a[i],
+            b[i]
+        );
+    }
+}

@@ -1,0 +1,189 @@
+//! Every lens model through the single-camera pipeline: noise-free recovery, honest sigmas, and
+//! convergence over the users' population with the model swapped in.
+
+use calib_core::synthetic::{SyntheticConfig, default_distortion, population};
+use calib_single::synthetic::generate;
+use calib_single::{CalibrationOptions, calibrate};
+use camera_model::{CameraModel, Intrinsics};
+
+const MODELS: [CameraModel; 5] = [
+    CameraModel::BrownConrady4,
+    CameraModel::BrownConrady5,
+    CameraModel::Rational8,
+    CameraModel::ThinPrism12,
+    CameraModel::KannalaBrandt4,
+];
+
+/// A configuration that determines every coefficient of `model`: many views of a board that
+/// reaches the image corners; a wide field for the fisheye.
+fn config(model: CameraModel, seed: u64, noise_px: f64) -> SyntheticConfig {
+    let mut c = SyntheticConfig {
+        model,
+        distortion: default_distortion(model),
+        views: 30,
+        noise_px,
+        seed,
+        ..Default::default()
+    };
+    if model.is_fisheye() {
+        // A 150 degree diagonal field on 640x480.
+        let f = c.image_size.half_diagonal() / 75f64.to_radians();
+        c.intrinsics = Intrinsics::new(f, f, 322.0, 236.0);
+    }
+    if matches!(model, CameraModel::Rational8 | CameraModel::ThinPrism12) {
+        // The rational terms (1 + k1 r^2 + ...) / (1 + k4 r^2 + ...) separate only at large
+        // normalized radii: a wide-angle lens (normalized radius up to 1.2).
+        c.intrinsics = Intrinsics::new(330.0, 330.0, 322.0, 236.0);
+    }
+    c
+}
+
+fn options(model: CameraModel) -> CalibrationOptions {
+    let mut o = CalibrationOptions::default();
+    o.model = model;
+    o
+}
+
+#[test]
+fn noise_free_data_recovers_every_model() {
+    for model in MODELS {
+        let set = generate(&config(model, 11, 0.0)).unwrap();
+        let result = calibrate(&set.observations, &options(model))
+            .unwrap_or_else(|e| panic!("{model}: {e}"));
+        let (a, b) = (result.camera.params(), set.camera.params());
+        for i in 0..a.len() {
+            assert!(
+                (a[i] - b[i]).abs() <= 1e-8 * b[i].abs().max(1.0),
+                "{model}, parameter {i}: {} vs {}",
+                a[i],
+                b[i]
+            );
+        }
+        assert_eq!(result.camera.model, model);
+        assert_eq!(result.distortion_std.len(), model.num_distortion_params());
+    }
+}
+
+/// With 0.3 px noise, over 20 data sets per model, the camera parameters fall outside their
+/// 3-sigma interval about as often as a Gaussian's (0.27%); at most 2% is accepted.
+///
+/// For the rational models only the intrinsics are checked: their coefficients are not
+/// identifiable one by one. Multiplying numerator and denominator by a common factor
+/// `(1 + a r^2)` changes all of them while the projection hardly moves, so noisy data lands at
+/// another point of that curved valley (k1 = -1.1 for a true -0.2, at the same RMS) where the
+/// linearized sigma, a local measure, does not reach back to the truth. Compare rational
+/// calibrations by their projections, not their coefficients (`docs/camera-model.md`).
+#[test]
+fn sigmas_are_honest_for_every_model() {
+    for model in MODELS {
+        let (mut outside, mut total, mut refused) = (0, 0, 0);
+        for seed in 0..20 {
+            let set = generate(&config(model, 100 + seed, 0.3)).unwrap();
+            let result = match calibrate(&set.observations, &options(model)) {
+                Ok(r) => r,
+                // thin-prism12's 16 parameters on 30 noisy views: the covariance is sometimes
+                // singular (reported in the note); counted, at most 2 of 20.
+                Err(e) if model == CameraModel::ThinPrism12 => {
+                    println!("{model}, seed {seed}: {e}");
+                    refused += 1;
+                    continue;
+                }
+                Err(e) => panic!("{model}, seed {seed}: {e}"),
+            };
+            let (a, b) = (result.camera.params(), set.camera.params());
+            let sigma: Vec<f64> = result
+                .intrinsics_std
+                .iter()
+                .chain(&result.distortion_std)
+                .copied()
+                .collect();
+            let checked = if matches!(model, CameraModel::Rational8 | CameraModel::ThinPrism12) {
+                4
+            } else {
+                a.len()
+            };
+            for i in 0..checked {
+                total += 1;
+                if (a[i] - b[i]).abs() > 3.0 * sigma[i] {
+                    outside += 1;
+                }
+            }
+        }
+        let fraction = outside as f64 / total as f64;
+        println!("{model}: {outside} of {total} outside 3 sigma, {refused} refused");
+        assert!(fraction <= 0.02, "{model}: {outside} of {total}");
+        assert!(refused <= 2, "{model}: {refused} refused");
+    }
+}
+
+/// The population of the convergence sweep with each pinhole model swapped in (its default
+/// distortion): every problem the truth start solves, the default start solves to the same
+/// minimum (brown-conrady5: RMS within 1e-5 px; the rational models, whose valley of nearly
+/// equivalent coefficients holds several minima of nearly equal cost: within 0.1%). Problems
+/// that do not determine a model are refused from the truth start too and are counted.
+#[test]
+fn every_model_converges_over_the_population() {
+    for model in [
+        CameraModel::BrownConrady5,
+        CameraModel::Rational8,
+        CameraModel::ThinPrism12,
+    ] {
+        let (mut at_minimum, mut undetermined, mut missed) = (0, 0, Vec::new());
+        for seed in 0..30 {
+            let mut c = population(seed);
+            c.model = model;
+            c.distortion = default_distortion(model);
+            // Rational models are for wide-angle lenses: their terms separate only at large
+            // normalized radii, so the focal length is drawn from 0.8 to 1.2 half-diagonals.
+            let f = c.image_size.half_diagonal() * (0.8 + 0.4 * ((seed * 37) % 100) as f64 / 100.0);
+            let ratio = c.intrinsics.fy / c.intrinsics.fx;
+            c.intrinsics.fx = f;
+            c.intrinsics.fy = f * ratio;
+            let Ok(set) = generate(&c) else { continue };
+            let mut truth = options(model);
+            truth.intrinsic_guess = Some(set.camera.intrinsics);
+            truth.distortion_guess = Some(set.camera.distortion.clone());
+            let Ok(reference) = calibrate(&set.observations, &truth) else {
+                undetermined += 1;
+                continue;
+            };
+            let tolerance = if model == CameraModel::BrownConrady5 {
+                1e-5
+            } else {
+                1e-3 * reference.rms_all_points
+            };
+            match calibrate(&set.observations, &options(model)) {
+                Ok(r)
+                    if r.solver.termination.is_converged()
+                        && r.rms_all_points <= reference.rms_all_points + tolerance => {}
+                Ok(r) => {
+                    missed.push(format!(
+                        "seed {seed}: {} ({} vs {})",
+                        r.solver.termination, r.rms_all_points, reference.rms_all_points
+                    ));
+                    continue;
+                }
+                Err(e) => {
+                    missed.push(format!("seed {seed}: {e}"));
+                    continue;
+                }
+            }
+            at_minimum += 1;
+        }
+        println!(
+            "{model}: {at_minimum} at the minimum, {undetermined} not determined, missed: {missed:?}"
+        );
+        // brown-conrady5 must never miss. The rational models' valley of nearly equivalent
+        // coefficients holds near-equal minima, flat stretches where the solver crawls to its
+        // iteration limit at the same RMS, and points where a pose loses rank: on this population
+        // they miss up to 5 of 30 (measured: rational8 misses 4, thin-prism12 3); documented in
+        // docs/camera-model.md, with brown-conrady5 recommended for narrow lenses.
+        let allowed = if model == CameraModel::BrownConrady5 {
+            0
+        } else {
+            6
+        };
+        assert!(missed.len() <= allowed, "{model}: {missed:?}");
+        assert!(at_minimum >= 20, "{model}: {at_minimum}");
+    }
+}
