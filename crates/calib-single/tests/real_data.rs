@@ -112,3 +112,34 @@ fn per_view_rms_and_bouguet_pixel_error_match_opencv() {
         assert!((ours - theirs).abs() < 1e-5, "{ours} vs {theirs}");
     }
 }
+
+/// brown-conrady5 (k3 free) reaches OpenCV 5's default minimum (`results.default` of the bundled
+/// references): RMS within 1e-5 px, intrinsics within 0.01 px.
+#[test]
+fn brown_conrady5_reaches_opencvs_default_minimum() {
+    for set in ["sourishg1", "sourishg2"] {
+        for camera in ["left", "right"] {
+            let obs = Observations::read(data(&format!("{set}/{camera}.json"))).unwrap();
+            let mut options = CalibrationOptions::default();
+            options.model = camera_model::CameraModel::BrownConrady5;
+            options.outliers = None;
+            let result = calibrate(&obs, &options).unwrap();
+            let r = &reference(set, camera)["results"]["default"];
+            let f = |key: &str| r[key].as_f64().unwrap();
+            assert!(
+                (result.rms - f("rms")).abs() < 1e-5,
+                "{set}/{camera}: rms {} vs {}",
+                result.rms,
+                f("rms")
+            );
+            let k = &result.camera.intrinsics;
+            for (ours, key) in [(k.fx, "fx"), (k.fy, "fy"), (k.cx, "cx"), (k.cy, "cy")] {
+                assert!(
+                    (ours - f(key)).abs() < 0.01,
+                    "{set}/{camera}: {key} {ours} vs {}",
+                    f(key)
+                );
+            }
+        }
+    }
+}
