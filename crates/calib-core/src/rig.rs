@@ -135,6 +135,31 @@ pub fn initial_rig(method: RigInit, left: &[Pose], right: &[Pose]) -> Option<Pos
     }
 }
 
+/// Sum of squared start errors of `problem` (px^2), or `None` if some point cannot be projected.
+pub fn start_cost(problem: &crate::JointProblem) -> Option<f64> {
+    let errors = crate::solve::reprojection_errors(problem).ok()?;
+    let cost: f64 = errors.iter().flatten().map(|e| e.norm_squared()).sum();
+    cost.is_finite().then_some(cost)
+}
+
+/// Rigs (left camera to right camera) to try when the default start cannot be evaluated: both initial methods and the own
+/// rig of up to 32 evenly spread pairs.
+pub fn candidate_rigs(left: &[Pose], right: &[Pose]) -> Vec<Pose> {
+    let mut rigs: Vec<Pose> = [RigInit::LeastSquares, RigInit::Median]
+        .into_iter()
+        .filter_map(|m| initial_rig(m, left, right))
+        .collect();
+    let step = left.len().div_ceil(32).max(1);
+    for k in (0..left.len()).step_by(step) {
+        let rotation = right[k].rotation * left[k].rotation.transpose();
+        rigs.push(Pose::new(
+            rotation,
+            right[k].translation - rotation * left[k].translation,
+        ));
+    }
+    rigs
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

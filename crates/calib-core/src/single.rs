@@ -14,6 +14,7 @@ use crate::init::{
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
+use crate::solve::JointSolution;
 use crate::warnings::{Warning, WarningCode};
 use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
 use nalgebra::{Matrix3, Point2, Point3, Vector2};
@@ -512,6 +513,28 @@ impl PreparedCamera {
             frames: std::mem::take(&mut self.initial_poses),
             observations: std::mem::take(&mut self.observations),
         }
+    }
+
+    /// The start stage of a multi-camera calibration (stereo, rig): this camera solved alone,
+    /// returning its spec (start at the solution; aspect ratio re-read from it) and the solution
+    /// (board pose per used view, rejected points). This stage only provides the start of the
+    /// joint optimization, which refines every parameter to the full tolerance: it stops at a
+    /// relative cost change of 1e-6 and skips the uncertainties.
+    pub fn solve_for_start(
+        self,
+        name: &str,
+        options: &crate::SolveOptions,
+    ) -> Result<(CameraSpec, JointSolution), CalibrationError> {
+        let mut spec = self.camera_spec(name);
+        let mut solve = options.clone();
+        solve.solver.function_tolerance = solve.solver.function_tolerance.max(1e-6);
+        solve.compute_uncertainty = false;
+        let solution = crate::solve(&self.into_problem(name), &solve)?;
+        spec.initial = solution.cameras[0].clone();
+        if let Some(r) = spec.aspect_ratio.as_mut() {
+            *r = spec.initial.intrinsics.fx / spec.initial.intrinsics.fy;
+        }
+        Ok((spec, solution))
     }
 
     /// Total number of points used.

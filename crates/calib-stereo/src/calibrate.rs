@@ -9,7 +9,7 @@ use crate::result::{PairResult, SkippedPair, StereoCalibration};
 use calib_core::diagnostics::{duplicate_views, same_view};
 use calib_core::init::StartMethod;
 use calib_core::result::CameraEstimate;
-use calib_core::rig::{RigInit, initial_rig, rig_rotation_disagreements};
+use calib_core::rig::{candidate_rigs, initial_rig, rig_rotation_disagreements, start_cost};
 use calib_core::single::camera_param_names;
 use calib_core::warnings::{Warning, WarningCode};
 use calib_core::{
@@ -139,31 +139,6 @@ const MAX_RIG_DISAGREEMENT_DEG: f64 = 30.0;
 /// A baseline shorter than this fraction of the median board distance gets a warning.
 const SHORT_BASELINE: f64 = 0.01;
 
-/// Sum of squared start errors of `problem` (px^2), or `None` if some point cannot be projected.
-fn start_cost(problem: &JointProblem) -> Option<f64> {
-    let errors = calib_core::reprojection_errors(problem).ok()?;
-    let cost: f64 = errors.iter().flatten().map(|e| e.norm_squared()).sum();
-    cost.is_finite().then_some(cost)
-}
-
-/// Rigs to try when the default start cannot be evaluated: both initial methods and the own
-/// rig of up to 32 evenly spread pairs.
-fn candidate_rigs(left: &[Pose], right: &[Pose]) -> Vec<Pose> {
-    let mut rigs: Vec<Pose> = [RigInit::LeastSquares, RigInit::Median]
-        .into_iter()
-        .filter_map(|m| initial_rig(m, left, right))
-        .collect();
-    let step = left.len().div_ceil(32).max(1);
-    for k in (0..left.len()).step_by(step) {
-        let rotation = right[k].rotation * left[k].rotation.transpose();
-        rigs.push(Pose::new(
-            rotation,
-            right[k].translation - rotation * left[k].translation,
-        ));
-    }
-    rigs
-}
-
 /// The stereo calibration of the pairs `kept`.
 fn calibrate_pairs(
     observations: &StereoObservations,
@@ -227,21 +202,16 @@ fn calibrate_pairs(
         return Err(PairsFailure::Duplicates(duplicates));
     }
 
-    // Single-camera calibrations on the kept pairs. This stage only provides the start of the
-    // joint optimization, which refines every parameter to the full tolerance: stop at a
-    // relative cost change of 1e-6 (the last iterations of a full convergence move the
-    // parameters by far less than the joint stage's first step) and skip the uncertainties.
+    // Single-camera calibrations on the kept pairs: the start of the joint optimization.
     let single = |side: Side, camera_options: &CalibrationOptions, prepared: PreparedCamera| {
         let t = Instant::now();
-        let spec = prepared.camera_spec(&side.to_string());
         let start_method = prepared.start_method;
         let mut solve = camera_options.solve_options();
         solve.rotation = options.rotation;
         solve.outliers = options.outliers;
         solve.solver.num_threads = options.solver.num_threads;
-        solve.solver.function_tolerance = solve.solver.function_tolerance.max(1e-6);
-        solve.compute_uncertainty = false;
-        let solution = calib_core::solve(&prepared.into_problem(&side.to_string()), &solve)
+        let (spec, solution) = prepared
+            .solve_for_start(&side.to_string(), &solve)
             .map_err(|e| {
                 engine_failure(e, 1, |source| StereoError::Camera {
                     camera: side,

@@ -1,0 +1,528 @@
+//! The rig pipeline (`docs/calib-rig.md`): each camera alone, the camera graph and its spanning
+//! tree, transforms averaged over shared frames and chained along the tree, then one joint
+//! Levenberg-Marquardt in the engine (`calib_core`), the same one stereo uses.
+
+use crate::error::RigError;
+use crate::graph::{SpanningTree, shared_frames, spanning_tree};
+use crate::observations::RigObservations;
+use crate::options::RigOptions;
+use crate::result::{FrameResult, FrameView, RigCalibration, RigCamera, params_of};
+use calib_core::result::CameraEstimate;
+use calib_core::rig::{candidate_rigs, least_squares_rig};
+use calib_core::single::camera_param_names;
+use calib_core::{
+    CalibrationError, CameraSpec, JointProblem, JointSolution, ObservationErrors, ObservationSpec,
+    SolveOptions, View, prepare_camera,
+};
+use camera_model::{AnyCamera, CameraModel, Pose};
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// One camera after its own calibration.
+struct CameraStart {
+    spec: CameraSpec,
+    /// Board-to-camera pose per frame the camera saw.
+    poses: HashMap<usize, Pose>,
+    /// Points rejected by its own calibration, per frame.
+    rejected: HashMap<usize, Vec<usize>>,
+    method: String,
+}
+
+/// Checks the file: cameras and frames present, observations naming existing cameras at most once
+/// per frame, image sizes positive.
+fn check(observations: &RigObservations, options: &RigOptions) -> Result<(), RigError> {
+    let n = observations.cameras.len();
+    if n == 0 {
+        return Err(RigError::Empty("cameras"));
+    }
+    if observations.frames.is_empty() {
+        return Err(RigError::Empty("frames"));
+    }
+    if options.reference >= n {
+        return Err(RigError::InvalidOption(format!(
+            "reference camera {} of {n}",
+            options.reference
+        )));
+    }
+    for c in &observations.cameras {
+        if c.image_size.width == 0 || c.image_size.height == 0 {
+            return Err(RigError::InvalidOption(format!(
+                "camera '{}': image size {}x{}",
+                c.name, c.image_size.width, c.image_size.height
+            )));
+        }
+    }
+    for (f, frame) in observations.frames.iter().enumerate() {
+        let mut seen = vec![false; n];
+        for o in &frame.observations {
+            if o.camera >= n {
+                return Err(RigError::BadFrame {
+                    frame: f,
+                    reason: format!("camera {} of {n}", o.camera),
+                });
+            }
+            if std::mem::replace(&mut seen[o.camera], true) {
+                return Err(RigError::BadFrame {
+                    frame: f,
+                    reason: format!(
+                        "camera '{}' observed twice",
+                        observations.cameras[o.camera].name
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The lens model of camera `c`.
+fn model_of(observations: &RigObservations, options: &RigOptions, c: usize) -> CameraModel {
+    options
+        .given
+        .get(c)
+        .and_then(|g| g.as_ref().map(|g| g.model))
+        .or_else(|| options.models.get(c).copied().flatten())
+        .or(observations.cameras[c].model)
+        .unwrap_or(options.camera.model)
+}
+
+/// Camera `c` calibrated alone on its frames (or its given intrinsics held), for the start.
+fn start_camera(
+    observations: &RigObservations,
+    options: &RigOptions,
+    c: usize,
+) -> Result<CameraStart, RigError> {
+    let input = &observations.cameras[c];
+    let views: Vec<(usize, &View)> = observations
+        .frames
+        .iter()
+        .enumerate()
+        .filter_map(|(f, frame)| {
+            frame
+                .observations
+                .iter()
+                .find(|o| o.camera == c)
+                .map(|o| (f, &o.view))
+        })
+        .collect();
+    let given = options.given.get(c).and_then(Option::as_ref);
+    if given.is_none() && views.len() < options.min_views {
+        return Err(RigError::TooFewViews {
+            camera: input.name.clone(),
+            views: views.len(),
+            needed: options.min_views,
+        });
+    }
+    let mut camera_options = options.camera.clone();
+    camera_options.model = model_of(observations, options, c);
+    camera_options.skip_bad_views = false;
+    camera_options.drop_duplicate_views = false;
+    camera_options
+        .fixed_distortion
+        .retain(|&i| i < camera_options.model.num_distortion_params());
+    if camera_options
+        .distortion_guess
+        .as_ref()
+        .is_some_and(|d| d.len() != camera_options.model.num_distortion_params())
+    {
+        camera_options.distortion_guess = None;
+    }
+    if let Some(g) = given {
+        camera_options.intrinsic_guess = Some(g.intrinsics);
+        camera_options.distortion_guess = Some(g.distortion.clone());
+        camera_options.fix_focal_length = true;
+        camera_options.fix_principal_point = true;
+        camera_options.fixed_distortion = (0..g.model.num_distortion_params()).collect();
+    }
+    let camera_error = |source| RigError::Camera {
+        camera: input.name.clone(),
+        source,
+    };
+    let prepared =
+        prepare_camera(&views, Some(input.image_size), &camera_options).map_err(camera_error)?;
+    let method = if given.is_some() {
+        "given".to_string()
+    } else {
+        prepared.start_method.name().to_string()
+    };
+    let frames: Vec<usize> = prepared.views.iter().map(|(f, _)| *f).collect();
+    let mut solve = camera_options.solve_options();
+    solve.rotation = options.rotation;
+    solve.outliers = options.outliers;
+    solve.solver.num_threads = options.solver.num_threads;
+    let (mut spec, solution) = prepared
+        .solve_for_start(&input.name, &solve)
+        .map_err(camera_error)?;
+    if given.is_some() {
+        spec.fixed = (0..spec.model().num_params()).collect();
+        spec.aspect_ratio = None;
+    }
+    Ok(CameraStart {
+        spec,
+        poses: frames
+            .iter()
+            .copied()
+            .zip(solution.frames.clone())
+            .collect(),
+        rejected: frames
+            .iter()
+            .copied()
+            .zip(solution.rejected.iter().cloned())
+            .collect(),
+        method,
+    })
+}
+
+/// The joint problem's start: each camera's transform from the reference, chained along the
+/// spanning tree; each frame's board pose in the reference camera's frame, from the camera
+/// closest to the reference (in tree edges) that saw it.
+fn initial_transforms(
+    observations: &RigObservations,
+    starts: &[CameraStart],
+    options: &RigOptions,
+) -> Result<(Vec<Pose>, SpanningTree), RigError> {
+    let n = starts.len();
+    let seen: Vec<Vec<usize>> = observations
+        .frames
+        .iter()
+        .map(|f| f.observations.iter().map(|o| o.camera).collect())
+        .collect();
+    let shared = shared_frames(n, &seen);
+    let tree =
+        spanning_tree(&shared, options.reference).map_err(|groups| RigError::Disconnected {
+            groups: groups
+                .into_iter()
+                .map(|g| {
+                    g.into_iter()
+                        .map(|c| observations.cameras[c].name.clone())
+                        .collect()
+                })
+                .collect(),
+        })?;
+    let mut transforms = vec![Pose::identity(); n];
+    for &c in &tree.order[1..] {
+        let p = tree.parent[c].expect("every camera but the reference has a parent");
+        let (mut from, mut to) = (Vec::new(), Vec::new());
+        for (f, pose) in &starts[p].poses {
+            if let Some(other) = starts[c].poses.get(f) {
+                from.push(*pose);
+                to.push(*other);
+            }
+        }
+        let edge = least_squares_rig(&from, &to)
+            .ok_or_else(|| RigError::Initialization(observations.cameras[c].name.clone()))?;
+        transforms[c] = edge.compose(&transforms[p]);
+    }
+    Ok((transforms, tree))
+}
+
+/// Board pose per frame in the reference camera's frame (`None` for frames no camera's start
+/// placed), from the camera nearest the reference (in tree edges) that saw it.
+fn frame_starts(
+    observations: &RigObservations,
+    starts: &[CameraStart],
+    transforms: &[Pose],
+    tree: &SpanningTree,
+) -> Vec<Option<Pose>> {
+    (0..observations.frames.len())
+        .map(|f| {
+            let via = observations.frames[f]
+                .observations
+                .iter()
+                .filter(|o| starts[o.camera].poses.contains_key(&f))
+                .min_by_key(|o| (tree.depth[o.camera], o.camera))?
+                .camera;
+            Some(transforms[via].inverse().compose(&starts[via].poses[&f]))
+        })
+        .collect()
+}
+
+/// Sum of squared start errors (px^2) of camera `c`'s observations with transform `transform`,
+/// or `None` if a point cannot be projected (behind the camera, beyond its lens' range).
+fn camera_start_cost(
+    observations: &RigObservations,
+    camera: &AnyCamera,
+    c: usize,
+    transform: &Pose,
+    frames: &[Option<Pose>],
+) -> Option<f64> {
+    let mut cost = 0.0;
+    for (frame, pose) in observations.frames.iter().zip(frames) {
+        let (Some(o), Some(pose)) = (frame.observations.iter().find(|o| o.camera == c), pose)
+        else {
+            continue;
+        };
+        let camera_pose = transform.compose(pose);
+        for (x, p) in o.view.object_points.iter().zip(&o.view.image_points) {
+            let q = camera
+                .project_camera_point(&camera_pose.transform_point(x))
+                .ok()?;
+            cost += (q - p.coords).norm_squared();
+        }
+    }
+    cost.is_finite().then_some(cost)
+}
+
+/// On weak captures (boards nearly facing the cameras, few shared frames) the per-camera poses
+/// are loose and an averaged transform can put board points behind a camera or beyond its lens
+/// model's range, where the joint optimization cannot start. As stereo does, such a camera's
+/// edge is replaced by the candidate (the other averaging method, or one shared frame's own
+/// transform) with the lowest start error that every point can be evaluated at.
+fn repair_transforms(
+    observations: &RigObservations,
+    starts: &[CameraStart],
+    transforms: &mut [Pose],
+    tree: &SpanningTree,
+) {
+    for &c in &tree.order[1..] {
+        let frames = frame_starts(observations, starts, transforms, tree);
+        let camera = &starts[c].spec.initial;
+        if camera_start_cost(observations, camera, c, &transforms[c], &frames).is_some() {
+            continue;
+        }
+        let p = tree.parent[c].expect("every camera but the reference has a parent");
+        let (mut from, mut to) = (Vec::new(), Vec::new());
+        for (f, pose) in &starts[p].poses {
+            if let Some(other) = starts[c].poses.get(f) {
+                from.push(*pose);
+                to.push(*other);
+            }
+        }
+        let best = candidate_rigs(&from, &to)
+            .into_iter()
+            .filter_map(|edge| {
+                let transform = edge.compose(&transforms[p]);
+                camera_start_cost(observations, camera, c, &transform, &frames)
+                    .map(|cost| (cost, transform))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((_, transform)) = best {
+            transforms[c] = transform;
+        }
+    }
+}
+
+/// The joint problem: every frame with a start pose, every observation in it (points a camera's
+/// own calibration rejected start out suspected). Returns it with the input index of each of its
+/// frames.
+fn build_problem(
+    observations: &RigObservations,
+    cameras: Vec<CameraSpec>,
+    transforms: Vec<Pose>,
+    frame_poses: &[Option<Pose>],
+    reference: usize,
+    rejected: &[&HashMap<usize, Vec<usize>>],
+) -> (JointProblem, Vec<usize>) {
+    let n = cameras.len();
+    let mut frame_index = Vec::new();
+    let mut frames = Vec::new();
+    let mut specs = Vec::new();
+    for (f, (frame, pose)) in observations.frames.iter().zip(frame_poses).enumerate() {
+        let Some(pose) = pose else {
+            continue;
+        };
+        let k = frames.len();
+        frames.push(*pose);
+        frame_index.push(f);
+        for o in &frame.observations {
+            let mut spec = ObservationSpec::new(
+                o.camera,
+                k,
+                format!(
+                    "frame {f}, camera '{}' ({})",
+                    observations.cameras[o.camera].name, o.view.name
+                ),
+                o.view.object_points.clone(),
+                o.view.image_points.iter().map(|p| p.coords).collect(),
+            );
+            let own = rejected.get(o.camera).and_then(|r| r.get(&f));
+            if let Some(r) = own.filter(|r| !r.is_empty()) {
+                let mut suspected = vec![false; o.view.object_points.len()];
+                for &i in r {
+                    suspected[i] = true;
+                }
+                spec.suspected = Some(suspected);
+            }
+            specs.push(spec);
+        }
+    }
+    let problem = JointProblem {
+        cameras,
+        reference,
+        rig: transforms,
+        rig_fixed: (0..n).map(|c| c == reference).collect(),
+        frame_names: frame_index.iter().map(|f| format!("frame {f}")).collect(),
+        frames,
+        observations: specs,
+    };
+    (problem, frame_index)
+}
+
+/// The joint problem of a rig data set at given parameters (cameras, transforms from camera
+/// `reference` and board-to-reference poses per input frame), every camera parameter free: to
+/// evaluate the cost at someone else's solution, or to start from the truth in tests. Camera
+/// names come from the observations.
+pub fn rig_problem(
+    observations: &RigObservations,
+    cameras: &[AnyCamera],
+    transforms: &[Pose],
+    frame_poses: &[Pose],
+    reference: usize,
+) -> JointProblem {
+    let specs = cameras
+        .iter()
+        .zip(&observations.cameras)
+        .map(|(camera, input)| CameraSpec::new(&input.name, input.image_size, camera.clone()))
+        .collect();
+    let poses: Vec<Option<Pose>> = frame_poses.iter().copied().map(Some).collect();
+    build_problem(
+        observations,
+        specs,
+        transforms.to_vec(),
+        &poses,
+        reference,
+        &[],
+    )
+    .0
+}
+
+/// Calibrates a rig: see the crate documentation and `docs/calib-rig.md`.
+pub fn calibrate_rig(
+    observations: &RigObservations,
+    options: &RigOptions,
+) -> Result<RigCalibration, RigError> {
+    let start = Instant::now();
+    check(observations, options)?;
+    let n = observations.cameras.len();
+    let starts: Vec<CameraStart> = (0..n)
+        .map(|c| start_camera(observations, options, c))
+        .collect::<Result<_, _>>()?;
+    let per_camera = start.elapsed();
+    let (mut transforms, tree) = initial_transforms(observations, &starts, options)?;
+    repair_transforms(observations, &starts, &mut transforms, &tree);
+
+    let frames = frame_starts(observations, &starts, &transforms, &tree);
+    let rejected: Vec<&HashMap<usize, Vec<usize>>> = starts.iter().map(|s| &s.rejected).collect();
+    let (problem, frame_index) = build_problem(
+        observations,
+        starts.iter().map(|s| s.spec.clone()).collect(),
+        transforms,
+        &frames,
+        options.reference,
+        &rejected,
+    );
+    let mut solve = SolveOptions::default();
+    solve.rotation = options.rotation;
+    solve.solver = options.solver.clone();
+    solve.loss = options.loss;
+    solve.outliers = options.outliers;
+    let joint_start = Instant::now();
+    let solution = calib_core::solve(&problem, &solve).map_err(RigError::Joint)?;
+    let joint = joint_start.elapsed();
+    Ok(assemble(
+        observations,
+        options,
+        &problem,
+        solution,
+        &starts,
+        &frame_index,
+        tree.parent,
+        [per_camera, joint],
+        start,
+    ))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    observations: &RigObservations,
+    options: &RigOptions,
+    problem: &JointProblem,
+    solution: JointSolution,
+    starts: &[CameraStart],
+    frame_index: &[usize],
+    tree_parent: Vec<Option<usize>>,
+    [per_camera, joint]: [Duration; 2],
+    start: Instant,
+) -> RigCalibration {
+    let n = problem.cameras.len();
+    let mut sums = vec![ObservationErrors::default(); n];
+    let mut total = ObservationErrors::default();
+    let mut views: Vec<Vec<FrameView>> = vec![Vec::new(); problem.frames.len()];
+    for (o, e) in problem.observations.iter().zip(&solution.errors) {
+        sums[o.camera].add(e);
+        total.add(e);
+    }
+    for (i, o) in problem.observations.iter().enumerate() {
+        let e = &solution.errors[i];
+        views[o.frame].push(FrameView {
+            camera: o.camera,
+            rms: e.rms(),
+            points: e.used,
+            rejected_points: solution.rejected[i].clone(),
+        });
+    }
+    let cameras = (0..n)
+        .map(|c| {
+            let spec = &problem.cameras[c];
+            let std = &solution.camera_std[c];
+            let names = camera_param_names(spec.model());
+            RigCamera {
+                estimate: CameraEstimate {
+                    name: spec.name.clone(),
+                    camera: solution.cameras[c].clone(),
+                    image_size: spec.image_size,
+                    intrinsics_std: [std[0], std[1], std[2], std[3]],
+                    distortion_std: std[4..].to_vec(),
+                    fixed_parameters: spec.fixed.iter().map(|&i| names[i].to_string()).collect(),
+                    rms: sums[c].rms(),
+                    num_points: sums[c].used,
+                },
+                transform: solution.rig[c],
+                transform_params: if c == options.reference {
+                    params_of(&solution.rig[c], solution.rotation)
+                } else {
+                    solution.rig_params[c]
+                },
+                transform_std: solution.rig_std[c],
+                num_views: observations.views_of(c),
+                initial_method: starts[c].method.clone(),
+            }
+        })
+        .collect();
+    let frames = frame_index
+        .iter()
+        .enumerate()
+        .map(|(k, &index)| FrameResult {
+            index,
+            pose: solution.frames[k],
+            pose_params: solution.frame_params[k],
+            pose_std: solution.frame_std[k],
+            views: std::mem::take(&mut views[k]),
+        })
+        .collect();
+    let optimization = solution.report.total_time;
+    RigCalibration {
+        cameras,
+        reference: options.reference,
+        frames,
+        rms: total.rms(),
+        rms_all_points: total.rms_all(),
+        num_rejected: solution.num_rejected(),
+        residual_variance: solution.residual_variance,
+        rotation: solution.rotation,
+        tree_parent,
+        initial_rms: (2.0 * solution.initial_cost / total.used.max(1) as f64).sqrt(),
+        warnings: solution.warnings,
+        solver: solution.report,
+        elapsed: start.elapsed(),
+        stage_times: [per_camera, optimization, joint.saturating_sub(optimization)],
+    }
+}
+
+/// Maps an engine error from the joint stage (kept for callers matching on the source).
+pub fn joint_source(error: &RigError) -> Option<&CalibrationError> {
+    match error {
+        RigError::Joint(e) | RigError::Camera { source: e, .. } => Some(e),
+        _ => None,
+    }
+}

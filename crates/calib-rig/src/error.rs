@@ -1,0 +1,61 @@
+//! Errors of a rig calibration. Messages name cameras by their names and frames by their index
+//! in the input.
+
+use calib_core::CalibrationError;
+
+/// What can go wrong in a rig calibration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RigError {
+    /// No cameras or no frames.
+    #[error("the rig file has no {0}")]
+    Empty(&'static str),
+    /// An observation names a camera that does not exist, or a camera twice in one frame.
+    #[error("frame {frame}: {reason}")]
+    BadFrame {
+        /// Frame index.
+        frame: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An option is invalid (unknown camera name, reference out of range, ...).
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
+    /// A camera saw the board in too few frames to calibrate its own intrinsics.
+    #[error(
+        "camera '{camera}' saw the board in {views} frame{}: at least {needed} are needed for its own intrinsics; calibrate it alone and give them with --intrinsics {camera}=RESULT.json",
+        if *.views == 1 { "" } else { "s" }
+    )]
+    TooFewViews {
+        /// The camera.
+        camera: String,
+        /// Frames in which it saw the board.
+        views: usize,
+        /// Frames needed.
+        needed: usize,
+    },
+    /// The per-camera calibration that starts a camera failed.
+    #[error("initial calibration of camera '{camera}': {source}")]
+    Camera {
+        /// The camera.
+        camera: String,
+        /// Why.
+        source: CalibrationError,
+    },
+    /// Some cameras share no chain of frames with the reference camera.
+    #[error(
+        "cameras {} share no frames with the reference camera's group {}: their position in the rig cannot be found; add frames where the board is seen by cameras of both groups",
+        .groups[1..].iter().map(|g| format!("[{}]", g.join(", "))).collect::<Vec<_>>().join(" and "),
+        format!("[{}]", .groups[0].join(", "))
+    )]
+    Disconnected {
+        /// Camera names per connected group, the reference's group first.
+        groups: Vec<Vec<String>>,
+    },
+    /// The initial transform of a camera could not be computed.
+    #[error("initial transform of camera '{0}' from its shared frames failed")]
+    Initialization(String),
+    /// The joint optimization failed (the message names cameras and frames).
+    #[error("{0}")]
+    Joint(CalibrationError),
+}

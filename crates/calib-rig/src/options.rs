@@ -1,0 +1,50 @@
+//! Options of a rig calibration.
+
+use calib_core::{CalibrationOptions, OutlierRejection, default_solver_options};
+use camera_model::{AnyCamera, CameraModel, RotationKind};
+use lm_solver::{Loss, SolverOptions};
+
+/// What to estimate and how. The default estimates every camera's intrinsics (each from its own
+/// views first), every camera's transform from camera 0 and one board pose per frame.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct RigOptions {
+    /// Options of each camera's own calibration (masks, start, homographies); the lens model is
+    /// overridden per camera by [`RigOptions::models`] or the file's `model`.
+    pub camera: CalibrationOptions,
+    /// Lens model per camera (`None`: the file's, else `camera.model`); shorter than the camera
+    /// list is fine.
+    pub models: Vec<Option<CameraModel>>,
+    /// Known cameras (intrinsics and distortion), held fixed, per camera (`None`: estimated).
+    pub given: Vec<Option<AnyCamera>>,
+    /// The reference camera: its frame is the rig's, its transform the identity.
+    pub reference: usize,
+    /// Rotation parameterization of frame poses and camera transforms.
+    pub rotation: RotationKind,
+    /// Outlier rejection for the per-camera stages and the joint optimization (`None`: every
+    /// point).
+    pub outliers: Option<OutlierRejection>,
+    /// Robust loss of the joint optimization.
+    pub loss: Loss,
+    /// Fewest frames a camera must see for its own intrinsics (default 3).
+    pub min_views: usize,
+    /// Levenberg-Marquardt settings of the joint optimization (its thread count also applies to
+    /// the per-camera stages).
+    pub solver: SolverOptions,
+}
+
+impl Default for RigOptions {
+    fn default() -> Self {
+        Self {
+            camera: CalibrationOptions::default(),
+            models: Vec::new(),
+            given: Vec::new(),
+            reference: 0,
+            rotation: RotationKind::EulerXyz,
+            outliers: Some(OutlierRejection::default()),
+            loss: Loss::Trivial,
+            min_views: 3,
+            solver: default_solver_options(),
+        }
+    }
+}
