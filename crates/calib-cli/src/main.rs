@@ -4,6 +4,7 @@
 //! command line (from the argument parser).
 
 mod detect;
+mod rig;
 mod run;
 mod single;
 mod stereo;
@@ -29,6 +30,9 @@ enum Command {
     /// Calibrate a stereo rig from a stereo observation file, or from photographs (--board,
     /// --square, the left images, --right and the right images).
     Stereo(stereo::StereoArgs),
+    /// Calibrate a rig of N cameras (any overlap) from a rig observation file: every camera's
+    /// intrinsics, its transform from the reference camera and the board pose of every frame.
+    Rig(rig::RigArgs),
     /// Detect a chessboard's corners in photographs and write an observation file.
     Detect(detect::DetectArgs),
     /// Write a synthetic observation file with known truth.
@@ -50,6 +54,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Single(args) => single::run(&args),
         Command::Stereo(args) => stereo::run(&args),
+        Command::Rig(args) => rig::run(&args),
         Command::Detect(args) => detect::run(&args),
         Command::Synth(command) => synth::run(&command),
     };

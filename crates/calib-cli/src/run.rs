@@ -117,6 +117,24 @@ impl Report for calib_stereo::StereoCalibration {
     }
 }
 
+impl Report for calib_rig::RigCalibration {
+    fn elapsed_mut(&mut self) -> &mut Duration {
+        &mut self.elapsed
+    }
+    fn termination(&self) -> &Termination {
+        &self.solver.termination
+    }
+    fn warnings(&self) -> &[calib_core::Warning] {
+        &self.warnings
+    }
+    fn summary(&self) -> String {
+        calib_rig::RigCalibration::summary(self)
+    }
+    fn to_json(&self) -> Value {
+        calib_rig::RigCalibration::to_json(self)
+    }
+}
+
 /// Runs `calibrate` `output.repeat` times (at least once), keeps the last result with the median
 /// wall time, and reports it: an error for a numerical failure, otherwise the summary on stdout
 /// (unless quiet; it lists the warnings), the warnings on stderr when quiet, and the JSON file

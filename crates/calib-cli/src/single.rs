@@ -37,9 +37,10 @@ pub struct CameraArgs {
     /// Initial distortion coefficients in the model's order, e.g. k1,k2,p1,p2 (default zero).
     #[arg(long, value_name = "K1,K2,...")]
     pub distortion_guess: Option<String>,
-    /// Rotation parameterization of the poses during the optimization.
-    #[arg(long, value_enum, default_value_t = Rotation::Euler)]
-    pub rotation: Rotation,
+    /// Rotation parameterization of the poses during the optimization [default: euler; so3 for
+    /// calib rig, whose cameras may face any direction].
+    #[arg(long, value_enum)]
+    pub rotation: Option<Rotation>,
     /// How the closed-form focal length is solved.
     #[arg(long, value_enum, default_value_t = FocalMethod::Bouguet)]
     pub focal_init: FocalMethod,
@@ -121,7 +122,7 @@ impl CameraArgs {
         options.fix_aspect_ratio = self.fix_aspect_ratio;
         options.zero_tangential_distortion = self.zero_tangential;
         options.skip_bad_views = self.skip_bad_views;
-        options.rotation = match self.rotation {
+        options.rotation = match self.rotation.unwrap_or(Rotation::Euler) {
             Rotation::Euler => RotationKind::EulerXyz,
             Rotation::AxisAngle => RotationKind::AxisAngle,
             Rotation::So3 => RotationKind::So3,

@@ -1,6 +1,7 @@
 //! `calib synth`: synthetic observation files with known truth, for tests and benchmarks.
 
 use crate::{Failure, parse_list, parse_size, write_json};
+use calib_rig::synthetic::{RigLayout, SyntheticRigConfig, generate_rig};
 use calib_single::ImageSize;
 use calib_single::synthetic::{SyntheticConfig, generate};
 use calib_stereo::synthetic::{SyntheticStereoConfig, generate_stereo};
@@ -15,6 +16,40 @@ pub enum SynthCommand {
     Single(SynthArgs),
     /// A stereo rig (the camera settings above describe the left camera).
     Stereo(SynthStereoArgs),
+    /// A rig of N cameras on a ring or in a line around a shared volume (the camera settings
+    /// describe the first camera; --views is the number of frames).
+    Rig(SynthRigArgs),
+}
+
+#[derive(clap::ValueEnum, Debug, Clone, Copy)]
+pub enum Layout {
+    /// On a horizontal arc around the volume (see --arc).
+    Ring,
+    /// On a horizontal line (see --spacing), turned towards the volume.
+    Line,
+}
+
+/// Settings of a synthetic rig.
+#[derive(Args, Debug)]
+pub struct SynthRigArgs {
+    #[command(flatten)]
+    pub base: SynthArgs,
+    /// Number of cameras.
+    #[arg(long, default_value_t = 4)]
+    pub cameras: usize,
+    /// Where the cameras stand.
+    #[arg(long, value_enum, default_value_t = Layout::Ring)]
+    pub layout: Layout,
+    /// Arc covered by a ring, degrees (360: all around).
+    #[arg(long, default_value_t = 180.0, value_name = "DEG")]
+    pub arc: f64,
+    /// Distance between neighbours of a line, board widths.
+    #[arg(long, default_value_t = 0.6, value_name = "WIDTHS")]
+    pub spacing: f64,
+    /// Lens model per camera, repeated cyclically, e.g. brown-conrady4,kannala-brandt4
+    /// (default: --model for all; default distortions, scaled per camera).
+    #[arg(long, value_name = "MODEL,...")]
+    pub models: Option<String>,
 }
 
 /// Settings of synthetic stereo data.
@@ -204,8 +239,86 @@ fn stereo_config(args: &SynthStereoArgs) -> Result<SyntheticStereoConfig, Failur
     })
 }
 
+fn rig_config(args: &SynthRigArgs) -> Result<SyntheticRigConfig, Failure> {
+    let base = args.base.config()?;
+    let layout = match args.layout {
+        Layout::Ring if args.arc.is_finite() && args.arc > 0.0 && args.arc <= 360.0 => {
+            RigLayout::Ring { arc_deg: args.arc }
+        }
+        Layout::Line if args.spacing.is_finite() && args.spacing >= 0.0 => RigLayout::Line {
+            spacing: args.spacing,
+        },
+        _ => {
+            return Err(Failure(format!(
+                "--arc must be in (0, 360] degrees and --spacing at least 0 (got {} and {})",
+                args.arc, args.spacing
+            )));
+        }
+    };
+    let models = match &args.models {
+        Some(text) => text
+            .split(',')
+            .map(|m| {
+                m.trim()
+                    .parse::<CameraModel>()
+                    .map_err(|e| Failure(format!("--models: {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?,
+        None => Vec::new(),
+    };
+    Ok(SyntheticRigConfig {
+        cameras: args.cameras,
+        layout,
+        frames: base.views,
+        base,
+        models,
+    })
+}
+
+fn pose_json(p: &Pose) -> serde_json::Value {
+    let r = p.rotation;
+    json!({
+        "R": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
+        "T": [p.translation.x, p.translation.y, p.translation.z],
+    })
+}
+
 pub fn run(command: &SynthCommand) -> Result<(), Failure> {
     match command {
+        SynthCommand::Rig(args) => {
+            let config = rig_config(args)?;
+            let set = generate_rig(&config)?;
+            let mut out = set.observations.to_json_value();
+            let c = &config.base;
+            out["name"] = json!(format!(
+                "synthetic rig, {} cameras, {} frames, {}x{} board, noise {} px, seed {}",
+                config.cameras, config.frames, c.board_cols, c.board_rows, c.noise_px, c.seed
+            ));
+            out["board"] = json!({"cols": c.board_cols, "rows": c.board_rows, "square": c.square});
+            let cameras: Vec<serde_json::Value> = set
+                .cameras
+                .iter()
+                .zip(&set.transforms)
+                .map(|(camera, transform)| {
+                    let k = camera.intrinsics;
+                    let mut v = json!({
+                        "model": camera.model.name(),
+                        "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
+                        "distortion": camera.distortion,
+                    });
+                    let t = pose_json(transform);
+                    v["R"] = t["R"].clone();
+                    v["T"] = t["T"].clone();
+                    v
+                })
+                .collect();
+            out["truth"] = json!({
+                "convention": "X_cam = R X_cam0 + T; frame poses map board to camera 0",
+                "cameras": cameras,
+                "frame_poses": set.frame_poses.iter().map(pose_json).collect::<Vec<_>>(),
+            });
+            write_json(&args.base.output, &out)
+        }
         SynthCommand::Stereo(args) => {
             let config = stereo_config(args)?;
             let set = generate_stereo(&config)?;

@@ -61,6 +61,16 @@ fn check(observations: &RigObservations, options: &RigOptions) -> Result<(), Rig
                     reason: format!("camera {} of {n}", o.camera),
                 });
             }
+            let (points, pixels) = (o.view.object_points.len(), o.view.image_points.len());
+            if points != pixels {
+                return Err(RigError::BadFrame {
+                    frame: f,
+                    reason: format!(
+                        "camera '{}' has {pixels} image points for {points} board points",
+                        observations.cameras[o.camera].name
+                    ),
+                });
+            }
             if std::mem::replace(&mut seen[o.camera], true) {
                 return Err(RigError::BadFrame {
                     frame: f,
@@ -173,32 +183,38 @@ fn start_camera(
     })
 }
 
-/// The joint problem's start: each camera's transform from the reference, chained along the
-/// spanning tree; each frame's board pose in the reference camera's frame, from the camera
-/// closest to the reference (in tree edges) that saw it.
-fn initial_transforms(
+/// The camera graph's maximum spanning tree from the reference, or the connected groups.
+fn camera_tree(
     observations: &RigObservations,
-    starts: &[CameraStart],
     options: &RigOptions,
-) -> Result<(Vec<Pose>, SpanningTree), RigError> {
-    let n = starts.len();
+) -> Result<SpanningTree, RigError> {
+    let n = observations.cameras.len();
     let seen: Vec<Vec<usize>> = observations
         .frames
         .iter()
         .map(|f| f.observations.iter().map(|o| o.camera).collect())
         .collect();
     let shared = shared_frames(n, &seen);
-    let tree =
-        spanning_tree(&shared, options.reference).map_err(|groups| RigError::Disconnected {
-            groups: groups
-                .into_iter()
-                .map(|g| {
-                    g.into_iter()
-                        .map(|c| observations.cameras[c].name.clone())
-                        .collect()
-                })
-                .collect(),
-        })?;
+    spanning_tree(&shared, options.reference).map_err(|groups| RigError::Disconnected {
+        groups: groups
+            .into_iter()
+            .map(|g| {
+                g.into_iter()
+                    .map(|c| observations.cameras[c].name.clone())
+                    .collect()
+            })
+            .collect(),
+    })
+}
+
+/// Each camera's start transform from the reference: averaged over the frames it shares with
+/// its parent in the tree ([`least_squares_rig`], the stereo start) and chained from the root.
+fn initial_transforms(
+    observations: &RigObservations,
+    starts: &[CameraStart],
+    tree: &SpanningTree,
+) -> Result<Vec<Pose>, RigError> {
+    let n = starts.len();
     let mut transforms = vec![Pose::identity(); n];
     for &c in &tree.order[1..] {
         let p = tree.parent[c].expect("every camera but the reference has a parent");
@@ -213,7 +229,7 @@ fn initial_transforms(
             .ok_or_else(|| RigError::Initialization(observations.cameras[c].name.clone()))?;
         transforms[c] = edge.compose(&transforms[p]);
     }
-    Ok((transforms, tree))
+    Ok(transforms)
 }
 
 /// Board pose per frame in the reference camera's frame (`None` for frames no camera's start
@@ -394,11 +410,13 @@ pub fn calibrate_rig(
     let start = Instant::now();
     check(observations, options)?;
     let n = observations.cameras.len();
+    // The graph first: a disconnected rig is refused before any camera is calibrated.
+    let tree = camera_tree(observations, options)?;
     let starts: Vec<CameraStart> = (0..n)
         .map(|c| start_camera(observations, options, c))
         .collect::<Result<_, _>>()?;
     let per_camera = start.elapsed();
-    let (mut transforms, tree) = initial_transforms(observations, &starts, options)?;
+    let mut transforms = initial_transforms(observations, &starts, &tree)?;
     repair_transforms(observations, &starts, &mut transforms, &tree);
 
     let frames = frame_starts(observations, &starts, &transforms, &tree);

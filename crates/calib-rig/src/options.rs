@@ -19,7 +19,9 @@ pub struct RigOptions {
     pub given: Vec<Option<AnyCamera>>,
     /// The reference camera: its frame is the rig's, its transform the identity.
     pub reference: usize,
-    /// Rotation parameterization of frame poses and camera transforms.
+    /// Rotation parameterization of frame poses and camera transforms (default
+    /// [`RotationKind::So3`]: Euler angles are singular at 90 degrees about y, a common angle
+    /// between the cameras of a rig).
     pub rotation: RotationKind,
     /// Outlier rejection for the per-camera stages and the joint optimization (`None`: every
     /// point).
@@ -40,7 +42,7 @@ impl Default for RigOptions {
             models: Vec::new(),
             given: Vec::new(),
             reference: 0,
-            rotation: RotationKind::EulerXyz,
+            rotation: RotationKind::So3,
             outliers: Some(OutlierRejection::default()),
             loss: Loss::Trivial,
             min_views: 3,

@@ -1,0 +1,92 @@
+//! `calib rig`: calibrate a rig of N cameras.
+
+use crate::Failure;
+use crate::run::{OutputArgs, calibrate_and_report};
+use crate::single::{CameraArgs, looks_like_image};
+use calib_core::JsonFile;
+use calib_rig::{RigObservations, RigOptions, calibrate_rig};
+use camera_model::RotationKind;
+use clap::Args;
+
+/// Arguments of `calib rig`.
+#[derive(Args, Debug)]
+pub struct RigArgs {
+    /// Rig observation file (JSON, see docs/formats.md): the cameras and, per frame, the board
+    /// points and each camera's pixels.
+    #[arg(value_name = "RIG.json")]
+    pub input: String,
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// Options for every camera (a camera's "model" in the file overrides --model).
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// The reference camera (by name): the rig's frame is its frame. Default: the first camera.
+    #[arg(long, value_name = "NAME")]
+    pub reference: Option<String>,
+    /// Fewest frames a camera must see to calibrate its own intrinsics.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub min_views: usize,
+}
+
+/// The index of the camera named `name`, or a message listing the names.
+pub fn camera_index(
+    observations: &RigObservations,
+    name: &str,
+    what: &str,
+) -> Result<usize, Failure> {
+    observations
+        .cameras
+        .iter()
+        .position(|c| c.name == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = observations
+                .cameras
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect();
+            Failure(format!(
+                "{what}: no camera named '{name}' (the cameras are {})",
+                names.join(", ")
+            ))
+        })
+}
+
+impl RigArgs {
+    /// The library options for `observations`.
+    pub fn options(&self, observations: &RigObservations) -> Result<RigOptions, Failure> {
+        let camera = self.camera.options()?;
+        let mut options = RigOptions::default();
+        options.solver = camera.solver.clone();
+        // Euler angles are singular where a camera turns 90 degrees about y from the
+        // reference: common in rigs.
+        if self.camera.rotation.is_none() {
+            options.rotation = RotationKind::So3;
+        } else {
+            options.rotation = camera.rotation;
+        }
+        options.outliers = camera.outliers;
+        options.loss = camera.loss;
+        options.min_views = self.min_views.max(1);
+        options.camera = camera;
+        if let Some(name) = &self.reference {
+            options.reference = camera_index(observations, name, "--reference")?;
+        }
+        Ok(options)
+    }
+}
+
+pub fn run(args: &RigArgs) -> Result<(), Failure> {
+    args.output.check_against(&[args.input.as_str()])?;
+    if looks_like_image(&args.input) {
+        return Err(Failure(format!(
+            "{} is an image: calib rig reads a rig observation file (detect each camera's corners with calib detect first)",
+            args.input
+        )));
+    }
+    let observations = RigObservations::read_bounded(&args.input, args.output.max_input())?;
+    let options = args.options(&observations)?;
+    let source = args.input.clone();
+    calibrate_and_report(&source, &args.output, || {
+        calibrate_rig(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
+    })
+}

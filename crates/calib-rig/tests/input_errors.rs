@@ -1,0 +1,178 @@
+//! Bad rigs give typed errors naming cameras and frames; options that change the problem work.
+
+use calib_core::JsonFile;
+use calib_rig::synthetic::{RigLayout, SyntheticRigConfig, generate_rig};
+use calib_rig::{RigError, RigObservations, RigOptions, calibrate_rig};
+use camera_model::CameraModel;
+
+fn rig(cameras: usize, frames: usize) -> calib_rig::synthetic::SyntheticRigSet {
+    let config = SyntheticRigConfig {
+        cameras,
+        frames,
+        layout: RigLayout::Line { spacing: 0.5 },
+        ..Default::default()
+    };
+    generate_rig(&config).unwrap()
+}
+
+#[test]
+fn cameras_without_shared_frames_are_named_with_their_groups() {
+    let mut data = rig(4, 40);
+    // Split every frame shared between {cam0, cam1} and {cam2, cam3}: each group keeps its
+    // views in every other such frame.
+    for (f, frame) in data.observations.frames.iter_mut().enumerate() {
+        let low = frame.observations.iter().any(|o| o.camera < 2);
+        let high = frame.observations.iter().any(|o| o.camera >= 2);
+        if low && high {
+            frame
+                .observations
+                .retain(|o| (o.camera < 2) == (f % 2 == 0));
+        }
+    }
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    match &error {
+        RigError::Disconnected { groups } => {
+            assert_eq!(groups, &vec![vec!["cam0", "cam1"], vec!["cam2", "cam3"]]);
+        }
+        other => panic!("expected Disconnected, got {other}"),
+    }
+    let message = error.to_string();
+    assert!(
+        message.contains("[cam2, cam3]") && message.contains("[cam0, cam1]"),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_camera_with_too_few_frames_is_told_to_bring_its_intrinsics() {
+    let mut data = rig(3, 30);
+    // cam2 keeps two frames, both shared with another camera.
+    let mut kept = 0;
+    for frame in &mut data.observations.frames {
+        let shared = frame.observations.len() > 1;
+        let keep = shared && kept < 2 && frame.observations.iter().any(|o| o.camera == 2);
+        kept += usize::from(keep);
+        frame.observations.retain(|o| o.camera != 2 || keep);
+    }
+    assert_eq!(kept, 2);
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    assert!(
+        matches!(error, RigError::TooFewViews { views: 2, .. }),
+        "{error}"
+    );
+    assert!(error.to_string().contains("--intrinsics cam2="), "{error}");
+
+    // Given (fixed) intrinsics make the same rig solvable.
+    let mut options = RigOptions::default();
+    options.given = vec![None, None, Some(data.cameras[2].clone())];
+    let result = calibrate_rig(&data.observations, &options).unwrap();
+    assert!(result.solver.termination.is_converged());
+    assert_eq!(result.cameras[2].initial_method, "given");
+    assert_eq!(result.cameras[2].estimate.camera, data.cameras[2]);
+    assert!(
+        result.cameras[2]
+            .estimate
+            .intrinsics_std
+            .iter()
+            .all(|&s| s == 0.0)
+    );
+}
+
+#[test]
+fn malformed_frames_are_refused_with_their_index() {
+    let data = rig(2, 12);
+    let mut json = data.observations.to_json_value();
+    json["frames"][3]["observations"][0]["camera"] = 5.into();
+    let bad = RigObservations::from_json(&json.to_string()).unwrap();
+    let error = calibrate_rig(&bad, &RigOptions::default()).unwrap_err();
+    assert_eq!(error.to_string(), "frame 3: camera 5 of 2");
+
+    let mut json = data.observations.to_json_value();
+    let first = json["frames"][4]["observations"][0].clone();
+    json["frames"][4]["observations"]
+        .as_array_mut()
+        .unwrap()
+        .push(first);
+    let bad = RigObservations::from_json(&json.to_string()).unwrap();
+    let error = calibrate_rig(&bad, &RigOptions::default()).unwrap_err();
+    assert!(
+        error.to_string().contains("frame 4: camera 'cam"),
+        "{error}"
+    );
+
+    let mut json = data.observations.to_json_value();
+    json["frames"][5]["observations"][0]["image_points"]
+        .as_array_mut()
+        .unwrap()
+        .pop();
+    let bad = RigObservations::from_json(&json.to_string()).unwrap();
+    let error = calibrate_rig(&bad, &RigOptions::default()).unwrap_err();
+    assert!(error.to_string().contains("frame 5"), "{error}");
+
+    let empty = RigObservations {
+        cameras: data.observations.cameras.clone(),
+        frames: Vec::new(),
+    };
+    assert_eq!(
+        calibrate_rig(&empty, &RigOptions::default()).unwrap_err(),
+        RigError::Empty("frames")
+    );
+    let mut options = RigOptions::default();
+    options.reference = 7;
+    assert!(matches!(
+        calibrate_rig(&data.observations, &options).unwrap_err(),
+        RigError::InvalidOption(_)
+    ));
+}
+
+#[test]
+fn the_reference_camera_sets_the_frame_of_the_transforms() {
+    let data = rig(3, 30);
+    let base = calibrate_rig(&data.observations, &RigOptions::default()).unwrap();
+    let mut options = RigOptions::default();
+    options.reference = 1;
+    let moved = calibrate_rig(&data.observations, &options).unwrap();
+    assert!((moved.rms - base.rms).abs() < 1e-7);
+    assert_eq!(moved.cameras[1].transform, camera_model::Pose::identity());
+    // X_2 = R_21 X_1 + T_21 = (T_2 T_1^-1) X_1 from the first calibration.
+    let expected = base.cameras[2]
+        .transform
+        .compose(&base.cameras[1].transform.inverse());
+    let got = moved.cameras[2].transform;
+    assert!((got.translation - expected.translation).norm() < 1e-4);
+    assert!((got.rotation - expected.rotation).norm() < 1e-7);
+}
+
+#[test]
+fn pinhole_and_fisheye_cameras_calibrate_together() {
+    let config = SyntheticRigConfig {
+        cameras: 3,
+        frames: 36,
+        models: vec![CameraModel::BrownConrady4, CameraModel::KannalaBrandt4],
+        ..Default::default()
+    };
+    let data = generate_rig(&config).unwrap();
+    let result = calibrate_rig(&data.observations, &RigOptions::default()).unwrap();
+    assert!(result.solver.termination.is_converged());
+    assert_eq!(
+        result.cameras[1].estimate.camera.model,
+        CameraModel::KannalaBrandt4
+    );
+    for (c, camera) in result.cameras.iter().enumerate() {
+        let (k, t) = (
+            camera.estimate.camera.intrinsics,
+            data.cameras[c].intrinsics,
+        );
+        assert!(
+            (k.fx - t.fx).abs() < 6.0 * camera.estimate.intrinsics_std[0] + 1e-6,
+            "camera {c}: fx {} vs {}",
+            k.fx,
+            t.fx
+        );
+        let d = camera.transform.translation - data.transforms[c].translation;
+        assert!(
+            d.norm() < 0.01 * data.transforms[c].translation.norm().max(1.0),
+            "camera {c}: T off by {d}"
+        );
+    }
+}
