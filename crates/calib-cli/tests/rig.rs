@@ -1,0 +1,157 @@
+//! `calib rig` and `calib synth rig` as a user runs them.
+
+use serde_json::Value;
+use std::process::Command;
+
+fn calib() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_calib"))
+}
+
+fn temp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("calib-cli-rig-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn run_ok(command: &mut Command) -> std::process::Output {
+    let run = command.output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run
+}
+
+fn read(path: &std::path::Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn synthetic_rig_is_calibrated_with_the_documented_keys() {
+    let input = temp("rig.json");
+    let out = temp("rig-result.json");
+    run_ok(
+        calib()
+            .args(["synth", "rig", "--cameras", "4", "--views", "40", "-o"])
+            .arg(&input),
+    );
+    let run = run_ok(calib().arg("rig").arg(&input).arg("-o").arg(&out));
+    let summary = String::from_utf8(run.stdout).unwrap();
+    assert!(
+        summary.contains("Rig calibration (4 cameras, 40 frames)")
+            && summary.contains("camera 'cam3'")
+            && summary.contains("from 'cam0'"),
+        "{summary}"
+    );
+    let truth = read(&input)["truth"].clone();
+    let result = read(&out);
+    assert_eq!(result["format"], "calib-rig-result/1");
+    for key in [
+        "rms",
+        "elapsed_seconds",
+        "warnings",
+        "cameras",
+        "frames",
+        "solver",
+    ] {
+        assert!(result.get(key).is_some(), "missing {key}");
+    }
+    let cameras = result["cameras"].as_array().unwrap();
+    assert_eq!(cameras.len(), 4);
+    for (c, camera) in cameras.iter().enumerate() {
+        for key in [
+            "name",
+            "model",
+            "camera_matrix",
+            "dist_coeffs",
+            "R",
+            "T",
+            "std",
+        ] {
+            assert!(camera.get(key).is_some(), "camera {c}: missing {key}");
+        }
+        assert_eq!(camera["name"], format!("cam{c}"));
+        // Within 1% of the distance from the reference (noise 0.2 px).
+        let t: Vec<f64> = serde_json::from_value(camera["T"].clone()).unwrap();
+        let true_t: Vec<f64> = serde_json::from_value(truth["cameras"][c]["T"].clone()).unwrap();
+        let error = (0..3)
+            .map(|i| (t[i] - true_t[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let distance = true_t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(
+            error <= 0.01 * distance + 1e-9,
+            "camera {c}: T off by {error}"
+        );
+    }
+    assert_eq!(result["frames"].as_array().unwrap().len(), 40);
+}
+
+#[test]
+fn reference_and_errors_name_cameras() {
+    let input = temp("rig3.json");
+    run_ok(
+        calib()
+            .args([
+                "synth",
+                "rig",
+                "--cameras",
+                "3",
+                "--views",
+                "30",
+                "--layout",
+                "line",
+                "-o",
+            ])
+            .arg(&input),
+    );
+    let out = temp("rig3-result.json");
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&input)
+            .args(["--reference", "cam1", "-q", "-o"])
+            .arg(&out),
+    );
+    let result = read(&out);
+    assert_eq!(result["reference"], 1);
+    assert_eq!(
+        result["cameras"][1]["T"],
+        serde_json::json!([0.0, 0.0, 0.0])
+    );
+
+    let run = calib()
+        .arg("rig")
+        .arg(&input)
+        .args(["--reference", "left"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(
+        err.contains("no camera named 'left'") && err.contains("cam0, cam1, cam2"),
+        "{err}"
+    );
+
+    // Two groups of cameras that never saw the board together.
+    let mut file = read(&input);
+    for frame in file["frames"].as_array_mut().unwrap() {
+        let observations = frame["observations"].as_array_mut().unwrap();
+        observations.retain(|o| o["camera"] != 2);
+    }
+    file["frames"][0]["observations"] = serde_json::json!([{
+        "camera": 2,
+        "image_points": file["frames"][0]["observations"][0]["image_points"].clone(),
+    }]);
+    let cut = temp("cut.json");
+    std::fs::write(&cut, file.to_string()).unwrap();
+    let run = calib().arg("rig").arg(&cut).output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("[cam2]") && err.contains("[cam0, cam1]"),
+        "{err}"
+    );
+}
