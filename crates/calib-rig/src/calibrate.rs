@@ -8,23 +8,29 @@ use crate::observations::RigObservations;
 use crate::options::RigOptions;
 use crate::result::{FrameResult, FrameView, RigCalibration, RigCamera, params_of};
 use calib_core::result::CameraEstimate;
-use calib_core::rig::{candidate_rigs, least_squares_rig};
+use calib_core::rig::{candidate_rigs, least_squares_rig, rig_rotation_disagreements};
 use calib_core::single::camera_param_names;
+use calib_core::warnings::{Warning, WarningCode};
 use calib_core::{
     CalibrationError, CameraSpec, JointProblem, JointSolution, ObservationErrors, ObservationSpec,
     SolveOptions, View, prepare_camera,
 };
-use camera_model::{AnyCamera, CameraModel, Pose};
-use std::collections::HashMap;
+use camera_model::{AnyCamera, AxisAngle, CameraModel, Pose, RotationParameterization};
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
+
+/// Largest angle (degrees) between one shared frame's transform and the others' for the frame
+/// to count in the start transform (stereo's `MAX_RIG_DISAGREEMENT_DEG`: correct frames agree
+/// within the per-camera pose errors, up to about 11 degrees on weak captures).
+const MAX_TRANSFORM_DISAGREEMENT_DEG: f64 = 30.0;
 
 /// One camera after its own calibration.
 struct CameraStart {
     spec: CameraSpec,
     /// Board-to-camera pose per frame the camera saw.
-    poses: HashMap<usize, Pose>,
+    poses: BTreeMap<usize, Pose>,
     /// Points rejected by its own calibration, per frame.
-    rejected: HashMap<usize, Vec<usize>>,
+    rejected: BTreeMap<usize, Vec<usize>>,
     method: String,
 }
 
@@ -225,6 +231,18 @@ fn initial_transforms(
                 to.push(*other);
             }
         }
+        // Robust averaging: frames whose own transform disagrees with the others' by more
+        // than stereo's mismatch limit (corners numbered differently in the two views, views
+        // from different moments) are left out of the start; the joint stage then treats their
+        // points as outliers.
+        let disagreements = rig_rotation_disagreements(&from, &to);
+        let agree: Vec<usize> = (0..from.len())
+            .filter(|&k| disagreements[k].to_degrees() <= MAX_TRANSFORM_DISAGREEMENT_DEG)
+            .collect();
+        if !agree.is_empty() && agree.len() < from.len() {
+            from = agree.iter().map(|&k| from[k]).collect();
+            to = agree.iter().map(|&k| to[k]).collect();
+        }
         let edge = least_squares_rig(&from, &to)
             .ok_or_else(|| RigError::Initialization(observations.cameras[c].name.clone()))?;
         transforms[c] = edge.compose(&transforms[p]);
@@ -327,7 +345,7 @@ fn build_problem(
     transforms: Vec<Pose>,
     frame_poses: &[Option<Pose>],
     reference: usize,
-    rejected: &[&HashMap<usize, Vec<usize>>],
+    rejected: &[&BTreeMap<usize, Vec<usize>>],
 ) -> (JointProblem, Vec<usize>) {
     let n = cameras.len();
     let mut frame_index = Vec::new();
@@ -402,6 +420,64 @@ pub fn rig_problem(
     .0
 }
 
+/// Views whose own board pose, carried to the reference camera by the start transforms,
+/// disagrees with the frame's other views by more than [`MAX_TRANSFORM_DISAGREEMENT_DEG`]: per
+/// frame, the cameras that disagree with the majority (with two views, both) and the angle, in
+/// degrees. Such a view is consistent on its own (reversed corner numbering is a board turned
+/// half a turn) but not with the rig.
+fn inconsistent_views(
+    observations: &RigObservations,
+    starts: &[CameraStart],
+    transforms: &[Pose],
+) -> Vec<(usize, Vec<usize>, f64)> {
+    let mut found = Vec::new();
+    for (f, frame) in observations.frames.iter().enumerate() {
+        let implied: Vec<(usize, nalgebra::Matrix3<f64>)> = frame
+            .observations
+            .iter()
+            .filter_map(|o| {
+                let pose = starts[o.camera].poses.get(&f)?;
+                Some((
+                    o.camera,
+                    transforms[o.camera].rotation.transpose() * pose.rotation,
+                ))
+            })
+            .collect();
+        if implied.len() < 2 {
+            continue;
+        }
+        let angle = |a: &nalgebra::Matrix3<f64>, b: &nalgebra::Matrix3<f64>| {
+            AxisAngle::from_matrix(&(a.transpose() * b))
+                .norm()
+                .to_degrees()
+        };
+        // The view closest to all others; with two views, either.
+        let medoid = (0..implied.len())
+            .min_by(|&i, &j| {
+                let si: f64 = implied.iter().map(|v| angle(&implied[i].1, &v.1)).sum();
+                let sj: f64 = implied.iter().map(|v| angle(&implied[j].1, &v.1)).sum();
+                si.total_cmp(&sj)
+            })
+            .expect("two views or more");
+        let off: Vec<(usize, f64)> = implied
+            .iter()
+            .map(|(c, r)| (*c, angle(&implied[medoid].1, r)))
+            .filter(|(_, a)| *a > MAX_TRANSFORM_DISAGREEMENT_DEG)
+            .collect();
+        if off.is_empty() {
+            continue;
+        }
+        let worst = off.iter().map(|o| o.1).fold(0.0, f64::max);
+        let cameras = if implied.len() == 2 {
+            implied.iter().map(|v| v.0).collect()
+        } else {
+            off.iter().map(|o| o.0).collect()
+        };
+        found.push((f, cameras, worst));
+    }
+    found
+}
+
 /// Calibrates a rig: see the crate documentation and `docs/calib-rig.md`.
 pub fn calibrate_rig(
     observations: &RigObservations,
@@ -419,8 +495,51 @@ pub fn calibrate_rig(
     let mut transforms = initial_transforms(observations, &starts, &tree)?;
     repair_transforms(observations, &starts, &mut transforms, &tree);
 
+    // Views that contradict the rig: refused, or left out with a warning (skip_bad_views).
+    let mut warnings = Vec::new();
+    let inconsistent = inconsistent_views(observations, &starts, &transforms);
+    let filtered;
+    let observations = if inconsistent.is_empty() {
+        observations
+    } else {
+        let name = |c: &usize| format!("'{}'", observations.cameras[*c].name);
+        let describe = |(f, cameras, angle): &(usize, Vec<usize>, f64)| {
+            let names: Vec<String> = cameras.iter().map(name).collect();
+            format!(
+                "frame {f}: camera{} {} {} the board turned {angle:.1} degrees from the rest of the rig",
+                if cameras.len() > 1 { "s" } else { "" },
+                names.join(" and "),
+                if cameras.len() > 1 { "see" } else { "sees" },
+            )
+        };
+        if !options.camera.skip_bad_views {
+            return Err(RigError::InconsistentViews(
+                inconsistent.iter().map(describe).collect(),
+            ));
+        }
+        warnings.push(Warning::new(
+            WarningCode::InconsistentView,
+            format!(
+                "views left out (corners numbered differently, or views from different moments): {}",
+                inconsistent
+                    .iter()
+                    .map(describe)
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        ));
+        let mut copy = observations.clone();
+        for (f, cameras, _) in &inconsistent {
+            copy.frames[*f]
+                .observations
+                .retain(|o| !cameras.contains(&o.camera));
+        }
+        filtered = copy;
+        &filtered
+    };
+
     let frames = frame_starts(observations, &starts, &transforms, &tree);
-    let rejected: Vec<&HashMap<usize, Vec<usize>>> = starts.iter().map(|s| &s.rejected).collect();
+    let rejected: Vec<&BTreeMap<usize, Vec<usize>>> = starts.iter().map(|s| &s.rejected).collect();
     let (problem, frame_index) = build_problem(
         observations,
         starts.iter().map(|s| s.spec.clone()).collect(),
@@ -435,7 +554,9 @@ pub fn calibrate_rig(
     solve.loss = options.loss;
     solve.outliers = options.outliers;
     let joint_start = Instant::now();
-    let solution = calib_core::solve(&problem, &solve).map_err(RigError::Joint)?;
+    let mut solution = calib_core::solve(&problem, &solve).map_err(RigError::Joint)?;
+    warnings.append(&mut solution.warnings);
+    solution.warnings = warnings;
     let joint = joint_start.elapsed();
     Ok(assemble(
         observations,

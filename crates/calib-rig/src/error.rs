@@ -52,6 +52,13 @@ pub enum RigError {
         /// Camera names per connected group, the reference's group first.
         groups: Vec<Vec<String>>,
     },
+    /// Views whose board pose contradicts the rest of the rig (one entry per frame, naming the
+    /// cameras).
+    #[error(
+        "views disagree with the rig (corners numbered differently, or views from different moments): {}; fix the correspondences, remove those views, or leave them out with --skip-bad-views",
+        .0.join("; ")
+    )]
+    InconsistentViews(Vec<String>),
     /// The initial transform of a camera could not be computed.
     #[error("initial transform of camera '{0}' from its shared frames failed")]
     Initialization(String),

@@ -176,3 +176,52 @@ fn pinhole_and_fisheye_cameras_calibrate_together() {
         );
     }
 }
+
+#[test]
+fn a_view_with_reversed_corners_is_named() {
+    let mut data = rig(3, 30);
+    // Frame 7, camera 1: the corners listed the other way round (a detector that started at
+    // the opposite corner). Alone that view is a valid board pose; with the rig it is not.
+    let frame = data
+        .observations
+        .frames
+        .iter_mut()
+        .enumerate()
+        .skip(7)
+        .find(|(_, f)| f.observations.len() > 1 && f.observations.iter().any(|o| o.camera == 1))
+        .unwrap();
+    let index = frame.0;
+    let view = &mut frame
+        .1
+        .observations
+        .iter_mut()
+        .find(|o| o.camera == 1)
+        .unwrap()
+        .view;
+    view.image_points.reverse();
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    assert!(matches!(error, RigError::InconsistentViews(_)), "{error}");
+    let message = error.to_string();
+    assert!(
+        message.contains(&format!("frame {index}: camera")) && message.contains("'cam1'"),
+        "{message}"
+    );
+    assert_eq!(message.matches("frame ").count(), 1, "{message}");
+
+    // Left out with a warning on request; the rest calibrates as before.
+    let mut options = RigOptions::default();
+    options.camera.skip_bad_views = true;
+    let result = calibrate_rig(&data.observations, &options).unwrap();
+    assert!(result.solver.termination.is_converged());
+    assert!(
+        result
+            .warnings
+            .iter()
+            .any(|w| w.message.contains(&format!("frame {index}: camera"))),
+        "{:?}",
+        result.warnings
+    );
+    assert!(result.rms < 0.35, "{}", result.rms);
+    let frame = result.frames.iter().find(|f| f.index == index).unwrap();
+    assert!(frame.views.iter().all(|v| v.camera != 1));
+}
