@@ -142,9 +142,13 @@ def get(p):
     try: return json.load(open(p))
     except Exception: return None
 o, c = get(base + ".calib.json"), get(base + ".opencv.json")
-ours = "FAILED" if o is None else "rms %.8f %7.2f ms" % (o["rms"], 1e3 * o["elapsed_seconds"])
-cv = "FAILED" if c is None or "failed" in c else "rms %.8f %7.2f ms" % (c["rms_f64"], 1e3 * c["seconds_median"])
-print("  %-34s ours %-28s OpenCV %s" % (name, ours, cv))
+cv_ok = c is not None and "failed" not in c
+ours = "FAILED" if o is None else "rms %.8f %8.2f ms" % (o["rms"], 1e3 * o["elapsed_seconds"])
+cv = "FAILED" if not cv_ok else "rms %.8f %8.2f ms" % (c["rms_f64"], 1e3 * c["seconds_median"])
+both = o is not None and cv_ok
+diff = "rms ours-OpenCV %+.1e" % (o["rms"] - c["rms_f64"]) if both else ""
+ratio = "OpenCV/ours %.1fx" % (c["seconds_median"] / o["elapsed_seconds"]) if both and o["elapsed_seconds"] > 0 else ""
+print("  %-34s ours %-28s OpenCV %-28s %s  %s" % (name, ours, cv, diff, ratio))
 EOF
 done 3<"$MANIFEST"
 
