@@ -18,7 +18,11 @@ fn main() {
         .iter()
         .map(|v| (v.object_points.as_slice(), v.image_points.as_slice()))
         .collect();
-    let scoring = scoring_views(&prepared.homographies, &pts);
+    let scoring = scoring_views(
+        &prepared.homographies,
+        &pts,
+        calib_core::init::SCORING_POINTS,
+    );
     let (cx, cy) = size.centre();
     println!(
         "true f {:.1} k {:?} noise {:.2} start {:?} {:?}",

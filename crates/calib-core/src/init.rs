@@ -50,28 +50,54 @@ pub fn initial_intrinsics(
     method: FocalInit,
 ) -> Result<Intrinsics, CalibrationError> {
     let (cx, cy) = image_size.centre();
-    let shift = Matrix3::new(1.0, 0.0, -cx, 0.0, 1.0, -cy, 0.0, 0.0, 1.0);
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    let mut constraints = Vec::with_capacity(2 * homographies.len());
-    for h in homographies {
-        let hs = shift * h;
+    let centred = centred_homographies(homographies, image_size, 1.0);
+    let alpha = square_focal(&centred, method)?;
+    Ok(Intrinsics::new(alpha, alpha, cx, cy))
+}
+
+/// The homographies with the principal point moved to the origin, then `y` scaled by
+/// `y_scale` (`diag(1, y_scale, 1) [[1, 0, -cx], [0, 1, -cy], [0, 0, 1]] H`).
+fn centred_homographies(
+    homographies: &[Matrix3<f64>],
+    image_size: ImageSize,
+    y_scale: f64,
+) -> Vec<Matrix3<f64>> {
+    let (cx, cy) = image_size.centre();
+    let shift = Matrix3::new(1.0, 0.0, -cx, 0.0, y_scale, -cy * y_scale, 0.0, 0.0, 1.0);
+    homographies.iter().map(|h| shift * h).collect()
+}
+
+/// The orthogonality constraints of centred homographies: per view, the board's axes and its
+/// diagonals, each pair `(p, q)` normalized, as `(p.x q.x, p.y q.y, -p.z q.z)`: with square
+/// pixels `(a_x + a_y) / alpha^2 = b`, with `fx != fy` `a_x / fx^2 + a_y / fy^2 = b`.
+fn orthogonality_constraints(centred: &[Matrix3<f64>]) -> Vec<[f64; 3]> {
+    let mut constraints = Vec::with_capacity(2 * centred.len());
+    for hs in centred {
         let c1: Vector3<f64> = hs.column(0).into_owned();
         let c2: Vector3<f64> = hs.column(1).into_owned();
         for (p, q) in [(c1, c2), (c1 + c2, c1 - c2)] {
             let (p, q) = (p.normalize(), q.normalize());
-            let a = p.x * q.x + p.y * q.y;
-            let b = -p.z * q.z;
-            constraints.push(b);
-            ab += a * b;
-            aa += a * a;
-            bb += b * b;
+            constraints.push([p.x * q.x, p.y * q.y, -p.z * q.z]);
         }
+    }
+    constraints
+}
+
+/// The square-pixel focal length of centred homographies (see [`initial_intrinsics`]).
+fn square_focal(centred: &[Matrix3<f64>], method: FocalInit) -> Result<f64, CalibrationError> {
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    let mut tilt = 0.0f64;
+    for [ax, ay, b] in orthogonality_constraints(centred) {
+        let a = ax + ay;
+        ab += a * b;
+        aa += a * a;
+        bb += b * b;
+        tilt = tilt.max(b.abs());
     }
     let alpha2 = match method {
         FocalInit::Bouguet => ab / bb,
         FocalInit::LeastSquares => aa / ab,
     };
-    let tilt = constraints.iter().fold(0.0f64, |m, b| m.max(b.abs()));
     // b is about (tilt^2 / 2) / alpha^2 once the v's are normalized, so b alpha^2 measures tilt.
     let tilt_measure = if alpha2.is_finite() && alpha2 > 0.0 {
         tilt * alpha2
@@ -81,8 +107,58 @@ pub fn initial_intrinsics(
     if !(alpha2.is_finite() && alpha2 > 0.0) || tilt_measure < MIN_TILT_MEASURE {
         return Err(CalibrationError::FrontoParallel { tilt_measure });
     }
-    let alpha = alpha2.sqrt();
-    Ok(Intrinsics::new(alpha, alpha, cx, cy))
+    Ok(alpha2.sqrt())
+}
+
+/// Largest relative difference of `fx` and `fy` that the start treats as square pixels.
+const SQUARE_PIXELS: f64 = 0.02;
+
+/// Initial intrinsics with `fx != fy`, for cameras whose pixels are not square (an image
+/// resampled to another aspect ratio: the square-pixel closed forms then disagree). The
+/// constraints `a_x u + a_y v = b` (`u = 1/fx^2`, `v = 1/fy^2`) are solved by least squares for
+/// the ratio `s = fx / fy = sqrt(v / u)`; the image is rescaled by `s` in `y`, where the pixels
+/// are square, and the two square-pixel forms must agree there within
+/// [`CLOSED_FORM_AGREEMENT`], as they must for any camera. `None` if the pixels look square,
+/// or the forms still disagree.
+fn aspect_closed_form(
+    homographies: &[Matrix3<f64>],
+    image_size: ImageSize,
+    method: FocalInit,
+) -> Option<Intrinsics> {
+    let constraints =
+        orthogonality_constraints(&centred_homographies(homographies, image_size, 1.0));
+    let (mut xx, mut xy, mut yy, mut xb, mut yb) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for [ax, ay, b] in constraints {
+        xx += ax * ax;
+        xy += ax * ay;
+        yy += ay * ay;
+        xb += ax * b;
+        yb += ay * b;
+    }
+    let det = xx * yy - xy * xy;
+    let (u, v) = ((xb * yy - yb * xy) / det, (yb * xx - xb * xy) / det);
+    if !(u > 0.0 && v > 0.0 && u.is_finite() && v.is_finite()) {
+        return None;
+    }
+    let s = (v / u).sqrt();
+    if (s - 1.0).abs() <= SQUARE_PIXELS || !(0.5..=2.0).contains(&s) {
+        return None;
+    }
+    let centred = centred_homographies(homographies, image_size, s);
+    let a = square_focal(&centred, method).ok()?;
+    let b = square_focal(&centred, other_method(method)).ok()?;
+    if (a / b - 1.0).abs() > CLOSED_FORM_AGREEMENT {
+        return None;
+    }
+    let (cx, cy) = image_size.centre();
+    Some(Intrinsics::new(a, a / s, cx, cy))
+}
+
+fn other_method(method: FocalInit) -> FocalInit {
+    match method {
+        FocalInit::Bouguet => FocalInit::LeastSquares,
+        FocalInit::LeastSquares => FocalInit::Bouguet,
+    }
 }
 
 /// Initial pose of one view from its homography `H` (any scale) and intrinsics `K`:
@@ -134,6 +210,9 @@ pub enum StartMethod {
     Given,
     /// The closed form from the homographies (the seed's method).
     ClosedForm(FocalInit),
+    /// The closed form with `fx != fy` (pixels that are not square): see
+    /// [`start_intrinsics`].
+    ClosedFormAspect(FocalInit),
     /// The closed form was unusable or not at the minimum of the start's reprojection error: a
     /// one-dimensional search over the focal length found the start.
     FocalSearch,
@@ -149,6 +228,8 @@ impl std::str::FromStr for StartMethod {
             StartMethod::Given,
             StartMethod::ClosedForm(FocalInit::Bouguet),
             StartMethod::ClosedForm(FocalInit::LeastSquares),
+            StartMethod::ClosedFormAspect(FocalInit::Bouguet),
+            StartMethod::ClosedFormAspect(FocalInit::LeastSquares),
             StartMethod::FocalSearch,
             StartMethod::FisheyeSearch,
         ]
@@ -160,12 +241,17 @@ impl std::str::FromStr for StartMethod {
 
 impl StartMethod {
     /// The name in result files: `given`, `closed-form-bouguet`, `closed-form-least-squares`,
-    /// `focal-search`, `fisheye-focal-search`.
+    /// `closed-form-bouguet-aspect`, `closed-form-least-squares-aspect`, `focal-search`,
+    /// `fisheye-focal-search`.
     pub fn name(self) -> &'static str {
         match self {
             StartMethod::Given => "given",
             StartMethod::ClosedForm(FocalInit::Bouguet) => "closed-form-bouguet",
             StartMethod::ClosedForm(FocalInit::LeastSquares) => "closed-form-least-squares",
+            StartMethod::ClosedFormAspect(FocalInit::Bouguet) => "closed-form-bouguet-aspect",
+            StartMethod::ClosedFormAspect(FocalInit::LeastSquares) => {
+                "closed-form-least-squares-aspect"
+            }
             StartMethod::FocalSearch => "focal-search",
             StartMethod::FisheyeSearch => "fisheye-focal-search",
         }
@@ -189,9 +275,16 @@ pub struct ScoringView {
 
 /// Most views and points per view used to score focal lengths: a weakly tilted capture
 /// determines the focal length only through all its views together, so the search uses as many
-/// as it can afford (a score is one small calibration, about 1 ms at this size).
-const SCORING_VIEWS: usize = 40;
-const SCORING_POINTS: usize = 100;
+/// as it can afford (a score is one small calibration, about 1 ms at this size). The pinhole
+/// search only runs on weak captures and keeps up to 100 points per view (with 30, one weak
+/// stereo capture of the convergence population started outside the right camera's range);
+/// the fisheye search runs on every fisheye calibration and 30 points spread over a view fix its
+/// pose and its share of the distortion, at a third of the cost.
+pub const SCORING_VIEWS: usize = 40;
+/// See [`SCORING_VIEWS`].
+pub const SCORING_POINTS: usize = 100;
+/// See [`SCORING_VIEWS`].
+pub const FISHEYE_SCORING_POINTS: usize = 30;
 
 /// The relative depth range of a view's points, from its homography alone (independent of the
 /// intrinsics): with `w(X) = h31 X + h32 Y + h33` proportional to the depth of board point `X`,
@@ -214,8 +307,12 @@ pub fn perspective_measure(h: &Matrix3<f64>, points: &[Point3<f64>]) -> f64 {
 }
 
 /// The views that score focal lengths: the [`SCORING_VIEWS`] with the strongest perspective,
-/// each with at most [`SCORING_POINTS`] points spread over the view.
-pub fn scoring_views(homographies: &[Matrix3<f64>], views: &[ViewPoints<'_>]) -> Vec<ScoringView> {
+/// each with at most `max_points` points spread over the view.
+pub fn scoring_views(
+    homographies: &[Matrix3<f64>],
+    views: &[ViewPoints<'_>],
+    max_points: usize,
+) -> Vec<ScoringView> {
     let mut order: Vec<(f64, usize)> = homographies
         .iter()
         .zip(views)
@@ -228,7 +325,7 @@ pub fn scoring_views(homographies: &[Matrix3<f64>], views: &[ViewPoints<'_>]) ->
         .take(SCORING_VIEWS)
         .map(|(_, i)| {
             let (object, image) = views[i];
-            let step = object.len().div_ceil(SCORING_POINTS).max(1);
+            let step = object.len().div_ceil(max_points.max(1)).max(1);
             ScoringView {
                 h: homographies[i],
                 object: object.iter().step_by(step).copied().collect(),
@@ -248,19 +345,55 @@ pub struct ScoringCamera {
     pub fixed: Vec<usize>,
 }
 
+/// How hard a focal length's score is computed: the coarse grid only ranks focal lengths a
+/// factor 1.5 apart, so its small calibrations stop early; the golden-section refinement
+/// compares close focal lengths and needs the converged profile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScoreEffort {
+    /// Most Levenberg-Marquardt iterations of a score's calibration.
+    pub max_iterations: usize,
+    /// Its relative cost-change tolerance.
+    pub function_tolerance: f64,
+}
+
+impl ScoreEffort {
+    /// For the grid.
+    pub const COARSE: ScoreEffort = ScoreEffort {
+        max_iterations: 15,
+        function_tolerance: 1e-3,
+    };
+    /// For the refinement and comparisons.
+    pub const FINE: ScoreEffort = ScoreEffort {
+        max_iterations: 50,
+        function_tolerance: 1e-6,
+    };
+}
+
 /// The start's reprojection RMS (pixels) at focal length `f`: square pixels, principal point
 /// starting at `(cx, cy)`, every scoring view's pose from its homography, then everything but
 /// the focal lengths optimized as the calibration would (principal point, distortion, poses):
 /// the profile of the calibration's cost along the focal length, on the scoring subset.
 /// Infinite if some view has no pose or the solve fails.
 pub fn focal_score(f: f64, cx: f64, cy: f64, camera: &ScoringCamera, views: &[ScoringView]) -> f64 {
+    focal_score_with(f, cx, cy, camera, views, ScoreEffort::FINE)
+}
+
+/// [`focal_score`] computed with `effort`.
+pub fn focal_score_with(
+    f: f64,
+    cx: f64,
+    cy: f64,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+    effort: ScoreEffort,
+) -> f64 {
     let k = Intrinsics::new(f, f, cx, cy);
     let frames: Option<Vec<Pose>> = views
         .iter()
         .map(|v| initial_pose(&v.h, &k, &v.object))
         .collect();
     match frames {
-        Some(frames) => score_from_poses(k, camera, views, frames),
+        Some(frames) => score_from_poses(k, camera, views, frames, effort),
         None => f64::INFINITY,
     }
 }
@@ -310,12 +443,26 @@ pub fn fisheye_score(
     camera: &ScoringCamera,
     views: &[ScoringView],
 ) -> f64 {
+    fisheye_score_with(f, cx, cy, camera, views, ScoreEffort::FINE)
+}
+
+/// [`fisheye_score`] computed with `effort`.
+pub fn fisheye_score_with(
+    f: f64,
+    cx: f64,
+    cy: f64,
+    camera: &ScoringCamera,
+    views: &[ScoringView],
+    effort: ScoreEffort,
+) -> f64 {
     let frames: Option<Vec<Pose>> = views
         .iter()
         .map(|v| fisheye_pose(f, cx, cy, &v.object, &v.image))
         .collect();
     match frames {
-        Some(frames) => score_from_poses(Intrinsics::new(f, f, cx, cy), camera, views, frames),
+        Some(frames) => {
+            score_from_poses(Intrinsics::new(f, f, cx, cy), camera, views, frames, effort)
+        }
         None => f64::INFINITY,
     }
 }
@@ -328,7 +475,11 @@ pub fn fisheye_search(
     views: &[ScoringView],
 ) -> Option<f64> {
     let (cx, cy) = image_size.centre();
-    minimize_over_focal(image_size, |f| fisheye_score(f, cx, cy, camera, views))
+    // Equidistant: f = r / theta. At the image's half-diagonal d, theta runs from 0.2 rad (a
+    // 23 degree lens) to pi (a 360 degree one): f from d / pi to 5 d.
+    minimize_over_focal(image_size, (0.25, 5.0), |f, effort| {
+        fisheye_score_with(f, cx, cy, camera, views, effort)
+    })
 }
 
 /// The calibration's cost profile at intrinsics `k` (focal lengths held) from the given start
@@ -338,6 +489,7 @@ fn score_from_poses(
     camera: &ScoringCamera,
     views: &[ScoringView],
     frames: Vec<Pose>,
+    effort: ScoreEffort,
 ) -> f64 {
     let model = camera.model;
     let held = camera;
@@ -369,10 +521,10 @@ fn score_from_poses(
         outliers: None,
         ..SolveOptions::default()
     };
-    options.solver.max_iterations = 50;
+    options.solver.max_iterations = effort.max_iterations;
     options.solver.damping = lm_solver::DampingPolicy::marquardt();
     options.solver.num_threads = 1;
-    options.solver.function_tolerance = 1e-6;
+    options.solver.function_tolerance = effort.function_tolerance;
     match crate::solve::solve(&problem, &options) {
         Ok(solution) => {
             let (sum, n) = solution
@@ -394,51 +546,51 @@ pub fn focal_search(
     views: &[ScoringView],
 ) -> Option<f64> {
     let (cx, cy) = image_size.centre();
-    minimize_over_focal(image_size, |f| focal_score(f, cx, cy, camera, views))
+    minimize_over_focal(image_size, (0.05, 20.0), |f, effort| {
+        focal_score_with(f, cx, cy, camera, views, effort)
+    })
 }
 
-/// Minimizes `score(f)` over focal lengths: a log-spaced grid from 0.05 to 20 image
-/// half-diagonals (6 points per decade), then a golden-section search on `log f` between the
-/// best grid point's neighbours.
-fn minimize_over_focal(image_size: ImageSize, score: impl Fn(f64) -> f64) -> Option<f64> {
+/// Minimizes `score(f)` over focal lengths: a log-spaced grid between `low` and `high` image
+/// half-diagonals (6 points per decade, [`ScoreEffort::COARSE`]), then the vertex of the
+/// parabola through the best grid point and its neighbours (in `log f`, kept inside them). The
+/// grid step is a factor 1.47; the vertex is within a few percent of the profile's minimum,
+/// well inside what the calibration converges from. (A golden-section refinement with converged
+/// scores cost ten times as much and changed no result of the convergence sweeps.)
+fn minimize_over_focal(
+    image_size: ImageSize,
+    (low, high): (f64, f64),
+    score: impl Fn(f64, ScoreEffort) -> f64,
+) -> Option<f64> {
     let d = image_size.half_diagonal().max(1.0);
-    let (lo, hi) = ((0.05 * d).ln(), (20.0 * d).ln());
+    let (lo, hi) = ((low * d).ln(), (high * d).ln());
     let steps = ((hi - lo) / std::f64::consts::LN_10 * 6.0).ceil() as usize;
-    let score = |log_f: f64| score(log_f.exp());
     let grid: Vec<(f64, f64)> = (0..=steps)
         .map(|i| {
             let x = lo + (hi - lo) * i as f64 / steps as f64;
-            (x, score(x))
+            (x, score(x.exp(), ScoreEffort::COARSE))
         })
         .collect();
-    let (best, _) = grid
+    let (best, &(x1, s1)) = grid
         .iter()
         .enumerate()
         .filter(|(_, (_, s))| s.is_finite())
         .min_by(|a, b| a.1.1.total_cmp(&b.1.1))?;
-    let (mut a, mut b) = (
-        grid[best.saturating_sub(1)].0,
-        grid[(best + 1).min(steps)].0,
-    );
-    let ratio = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut c, mut e) = (b - ratio * (b - a), a + ratio * (b - a));
-    let (mut sc, mut se) = (score(c), score(e));
-    for _ in 0..12 {
-        if sc < se {
-            b = e;
-            e = c;
-            se = sc;
-            c = b - ratio * (b - a);
-            sc = score(c);
-        } else {
-            a = c;
-            c = e;
-            sc = se;
-            e = a + ratio * (b - a);
-            se = score(e);
-        }
+    if best == 0 || best == steps {
+        return Some(x1.exp());
     }
-    let x = if sc < se { c } else { e };
+    let ((x0, s0), (x2, s2)) = (grid[best - 1], grid[best + 1]);
+    if !(s0.is_finite() && s2.is_finite()) {
+        return Some(x1.exp());
+    }
+    // Equal spacing h: vertex at x1 + h (s0 - s2) / (2 (s0 - 2 s1 + s2)).
+    let h = x1 - x0;
+    let curvature = s0 - 2.0 * s1 + s2;
+    let x = if curvature > 0.0 {
+        (x1 + h * (s0 - s2) / (2.0 * curvature)).clamp(x0, x2)
+    } else {
+        x1
+    };
     Some(x.exp())
 }
 
@@ -473,10 +625,7 @@ pub fn start_intrinsics(
             tilt_measure: perspective,
         });
     }
-    let other = match method {
-        FocalInit::Bouguet => FocalInit::LeastSquares,
-        FocalInit::LeastSquares => FocalInit::Bouguet,
-    };
+    let other = other_method(method);
     let preferred = initial_intrinsics(homographies, image_size, method);
     let second = initial_intrinsics(homographies, image_size, other);
     if let (Ok(a), Ok(b)) = (&preferred, &second)
@@ -485,7 +634,15 @@ pub fn start_intrinsics(
     {
         return Ok((*a, StartMethod::ClosedForm(method)));
     }
-    let scoring = scoring_views(homographies, views);
+    // Square-pixel forms that disagree because the pixels are not square (and the calibration
+    // estimates fx and fy separately).
+    if !camera.fixed.contains(&1)
+        && let Some(k) = aspect_closed_form(homographies, image_size, method)
+        && (0.05 * d..=20.0 * d).contains(&k.fx)
+    {
+        return Ok((k, StartMethod::ClosedFormAspect(method)));
+    }
+    let scoring = scoring_views(homographies, views, SCORING_POINTS);
     let mut candidates: Vec<(f64, StartMethod)> = Vec::new();
     if let Some(f) = focal_search(image_size, camera, &scoring) {
         candidates.push((f, StartMethod::FocalSearch));
