@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Markdown tables for the rig benchmark from benches/rig/out/ (see README.md).
+
+    report.py OUT MANIFEST --command CMD [--note TEXT ...] [--rig-speed FILE]
+"""
+
+import argparse
+import json
+import os
+import platform
+import re
+import sys
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def secs(t):
+    if t is None:
+        return "FAILED"
+    return f"{t * 1000:.1f} ms" if t < 1 else f"{t:.2f} s"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("out")
+    ap.add_argument("manifest")
+    ap.add_argument("--command", required=True)
+    ap.add_argument("--note", action="append", default=[])
+    ap.add_argument("--rig-speed")
+    a = ap.parse_args()
+
+    rows, failures = [], []
+    with open(a.manifest) as f:
+        for line in f:
+            name, file, ours_rep, cv_rep = line.rstrip("\n").split("\t")[:4]
+            base = os.path.join(a.out, name)
+            status = open(base + ".status").read().strip() if os.path.exists(base + ".status") else ""
+            row = json.load(open(base + ".row.json")) if os.path.exists(base + ".row.json") else None
+            rows.append((name, row, int(ours_rep), int(cv_rep), status))
+            if status:
+                failures.append(f"{name}: {status}")
+
+    cv_version = next((r["opencv_version"] for _, r, *_ in rows if r), "n/a")
+    print("## Rig calibration: `calib rig` vs OpenCV `cv2.calibrateMultiview`, one thread each")
+    print()
+    print("| data set | cameras | frames | views | points | models | noise | RMS calib | RMS OpenCV | "
+          "OpenCV's returned value | time calib | time OpenCV | speed-up |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    verdicts = []
+    for name, r, ours_rep, cv_rep, status in rows:
+        if r is None:
+            print(f"| {name} | | | | | | | FAILED | FAILED | | | | |")
+            continue
+        m = re.search(r"noise ([0-9.]+) px", r.get("name", ""))
+        noise = f"{m.group(1)} px" if m else "?"
+        models = ", ".join(x.replace("brown-conrady", "bc") for x in r["models"])
+        o, u = r["opencv"], r.get("ours")
+        ratio = o["seconds_median"] / u["seconds_median"] if u else None
+        print(f"| {name} | {r['cameras']} | {r['frames']} | {r['views']} | {r['points']} | {models} | {noise} | "
+              f"{u['rms']:.6f} | {o['rms']:.6f} | {o['rms_returned']:.6f} | "
+              f"{secs(u['seconds_median']) if u else 'FAILED'} | {secs(o['seconds_median'])} | "
+              f"{f'{ratio:.0f}x' if ratio else 'n/a'} |" if u else
+              f"| {name} | {r['cameras']} | {r['frames']} | {r['views']} | {r['points']} | {models} | {noise} | "
+              f"FAILED | {o['rms']:.6f} | {o['rms_returned']:.6f} | FAILED | {secs(o['seconds_median'])} | n/a |")
+        if u:
+            verdicts.append((name, u["rms"] <= o["rms"] * (1 + 1e-9), u["rms"] - o["rms"], ratio,
+                             u["seconds_median"], r))
+    print()
+    print("Accuracy against the generator's truth (largest over the cameras; T in mm, the boards "
+          "having 25 mm squares):")
+    print()
+    print("| data set | max \\|T - T_true\\| calib | OpenCV | max rotation error calib | OpenCV | "
+          "max \\|f - f_true\\| calib | OpenCV | max \\|c - c_true\\| calib | OpenCV |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, r, *_ in rows:
+        if r is None or "ours" not in r or not r["ours"]["truth"]:
+            continue
+        tu, to = r["ours"]["truth"], r["opencv"]["truth"]
+        print(f"| {name} | {tu['max_T_error'] * 1000:.3f} mm | {to['max_T_error'] * 1000:.3f} mm | "
+              f"{tu['max_R_error_deg']:.4f} deg | {to['max_R_error_deg']:.4f} deg | "
+              f"{tu['max_f_error_px']:.3f} px | {to['max_f_error_px']:.3f} px | "
+              f"{tu['max_c_error_px']:.3f} px | {to['max_c_error_px']:.3f} px |")
+    print()
+    print("Checks (issue 14: same or lower RMS, at least 10x faster):")
+    print()
+    for name, lower, diff, ratio, t, r in verdicts:
+        print(f"- {name}: RMS calib - OpenCV = {diff:+.2e} px ({'same or lower' if lower else 'HIGHER'}); "
+              f"speed-up {ratio:.1f}x ({'>= 10x' if ratio >= 10 else 'BELOW 10x'}); "
+              f"calib {secs(t)} for {r['cameras']} cameras x {r['frames']} frames x "
+              f"{r['points'] // max(1, r['views'])} points ({r['views']} views)")
+    if a.rig_speed and os.path.exists(a.rig_speed):
+        print()
+        print("`rig_speed` example (library call, 10 cameras x 500 frames x 54 points, ring 360, one thread):")
+        print()
+        print("```")
+        print(open(a.rig_speed).read().rstrip())
+        print("```")
+    if failures:
+        print()
+        print("Failures:")
+        print()
+        for x in failures:
+            print(f"- {x}")
+    print()
+    print("Timing: median of the in-process repeats (calib: `elapsed_seconds` of `--repeat` runs; "
+          "OpenCV: `time.perf_counter()` around the call). Repeats per data set: "
+          + ", ".join(f"{n} {o} calib / {c} OpenCV" for n, _, o, c, _ in rows) + ".")
+    print("RMS: sqrt(mean over points of |projected - measured|^2), recomputed by compare_opencv.py "
+          "with cv2.projectPoints from each tool's returned parameters on the float64 points.")
+    print()
+    print(f"- machine: {cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+          "one thread per tool (cv2.setNumThreads(1), calib --threads 1)")
+    print(f"- OpenCV {cv_version} (opencv-python-headless), numpy "
+          f"{__import__('numpy').__version__}, Python {platform.python_version()}")
+    for n in a.note:
+        print(f"- {n}")
+    print(f"- command: `{a.command}`")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
