@@ -163,14 +163,16 @@ def run_opencv(p, repeats, time_extended=False):
         return cv2.calibrateMultiviewExtended(obj, img, sizes, mask, models, None, None, None, None,
                                               None, None, None, None, flags_i)
 
-    times, out, ext = [], None, None
+    times, cpu, out, ext = [], [], None, None
     for _ in range(repeats):
+        c0 = time.process_time()
         t0 = time.perf_counter()
         if time_extended:
             ext = extended()
         else:
             out = cv2.calibrateMultiview(obj, img, sizes, mask, models, None, None, None, None, flags_i)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
     if time_extended:
         same = None  # nothing to compare: the timed call is the one whose poses are used
         called = "calibrateMultiviewExtended"
@@ -203,6 +205,9 @@ def run_opencv(p, repeats, time_extended=False):
         "seconds_all": times,
         "seconds_median": statistics.median(times),
         "seconds_best": min(times),
+        # CPU time of this process during each timed call: close to the wall time when the
+        # call had a core to itself, lower when other work on the machine took turns.
+        "cpu_seconds_all": cpu,
         "rms_returned": float(rms_ret),
         "rms": rms,
         "points": n,
@@ -215,7 +220,7 @@ def run_opencv(p, repeats, time_extended=False):
     }
 
 
-def read_ours(p, path):
+def read_ours(p, path, process_times=None):
     with open(path) as f:
         r = json.load(f)
     Ks = [np.asarray(c["camera_matrix"], np.float64) for c in r["cameras"]]
@@ -229,10 +234,16 @@ def read_ours(p, path):
         frame_T[i] = np.asarray(fr["translation"], np.float64).ravel()
     rms, n = rms_of(p, Ks, dists, Rs, Ts, frame_R, frame_T)
     ts = r.get("elapsed_seconds_all") or [r["elapsed_seconds"]]
+    share = None
+    if process_times and os.path.exists(process_times):
+        # "user sys real" of the whole calib process (bash's time; all repeats plus file I/O).
+        user, system, real = (float(x) for x in open(process_times).read().split()[:3])
+        share = (user + system) / real if real > 0 else None
     return {
         "seconds_median": float(r["elapsed_seconds"]),
         "seconds_all": ts,
         "seconds_best": min(ts),
+        "process_cpu_share": share,
         "rms_reported": float(r["rms"]),
         "rms": rms,
         "points": n,
@@ -244,6 +255,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("obs")
     ap.add_argument("--ours", help="our calib rig result JSON for the same file")
+    ap.add_argument("--ours-time", help="file with 'user sys real' seconds of the calib process")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--time-extended", action="store_true",
                     help="time cv2.calibrateMultiviewExtended (the same job, also returning the board "
@@ -263,7 +275,7 @@ def main():
     }
     row["opencv"] = run_opencv(p, a.repeats, a.time_extended)
     if a.ours:
-        row["ours"] = read_ours(p, a.ours)
+        row["ours"] = read_ours(p, a.ours, a.ours_time)
     json.dump(row, sys.stdout, indent=1)
     print()
 

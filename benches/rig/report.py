@@ -75,8 +75,8 @@ def main():
             verdicts.append((name, u["rms"] <= o["rms"] * (1 + 1e-9), u["rms"] - o["rms"], ratio,
                              u["seconds_median"], r))
     print()
-    print("Accuracy against the generator's truth (largest over the cameras; T in mm, the boards "
-          "having 25 mm squares):")
+    print("Accuracy against the generator's truth (largest over the cameras; T in mm: the boards have "
+          "0.025 m squares):")
     print()
     print("| data set | max \\|T - T_true\\| calib | OpenCV | max rotation error calib | OpenCV | "
           "max \\|f - f_true\\| calib | OpenCV | max \\|c - c_true\\| calib | OpenCV |")
@@ -114,6 +114,17 @@ def main():
     print("Timing: median of the in-process repeats (calib: `elapsed_seconds` of `--repeat` runs; "
           "OpenCV: `time.perf_counter()` around the call). Repeats per data set: "
           + ", ".join(f"{n} {o} calib / {c} OpenCV" for n, _, o, c, _ in rows) + ".")
+    shares = []
+    for name, r, *_ in rows:
+        if r is None:
+            continue
+        o = r["opencv"]
+        cv_share = sum(o.get("cpu_seconds_all", [])) / sum(o["seconds_all"]) if o.get("cpu_seconds_all") else None
+        u_share = r.get("ours", {}).get("process_cpu_share")
+        f = lambda x: f"{x:.2f}" if x is not None else "n/a"  # noqa: E731
+        shares.append(f"{name} calib {f(u_share)} / OpenCV {f(cv_share)}")
+    print("CPU share (CPU time / wall time; 1.00 = a core to itself, lower = other work on the machine "
+          "took turns): " + "; ".join(shares) + ".")
     print("RMS: sqrt(mean over points of |projected - measured|^2), recomputed by compare_opencv.py "
           "with cv2.projectPoints from each tool's returned parameters on the float64 points.")
     print()

@@ -157,19 +157,22 @@ done
 FAILED=0
 while IFS=$'\t' read -r -u 3 name file ours cv large; do
     base=$OUT/$name
-    rm -f "$base".calib.json "$base".row.json "$base".*.log "$base".status
+    rm -f "$base".calib.json "$base".calib.time "$base".row.json "$base".*.log "$base".status
     echo "== $name"
     cmd=("$CALIB" rig "$file" -o "$base.calib.json" --threads 1 --repeat "$ours" -q)
     echo "  calib rig $file -o $base.calib.json --threads 1 --repeat $ours -q"
-    if ! run_limited "${cmd[@]}" >"$base.calib.log" 2>&1 </dev/null; then
-        rc=$?
+    # bash's `time` gives the process's CPU and wall time: their ratio shows how much of a core
+    # the run had on this shared machine.
+    rc=0
+    { TIMEFORMAT='%U %S %R'; time run_limited "${cmd[@]}" >"$base.calib.log" 2>&1 </dev/null || rc=$?; } 2>"$base.calib.time"
+    if [[ $rc -ne 0 ]]; then
         echo "  calib failed ($(exit_text $rc)); see $base.calib.log" >&2
         echo "calib failed ($(exit_text $rc))" >>"$base.status"
         rm -f "$base.calib.json"
         FAILED=1
     fi
     ours_arg=()
-    [[ -f "$base.calib.json" ]] && ours_arg=(--ours "$base.calib.json")
+    [[ -f "$base.calib.json" ]] && ours_arg=(--ours "$base.calib.json" --ours-time "$base.calib.time")
     # On the 500-frame set one OpenCV call takes minutes: time the Extended call (same job, also
     # returns the board poses) instead of timing the plain one and re-running Extended for poses.
     [[ $large -eq 1 ]] && ours_arg+=(--time-extended)
