@@ -122,6 +122,9 @@ DATASETS=(
     "rig5x100_line|2|--cameras 5 --views 100 --layout line --spacing 0.6 --models brown-conrady5 --noise 0.2"
     "rig8x200_ring360|3|--cameras 8 --views 200 --layout ring --arc 360 --models brown-conrady4,brown-conrady5 --noise 0.5"
     "rig10x500_ring360|4|--cameras 10 --views 500 --layout ring --arc 360 --models brown-conrady4 --noise 0.2"
+    # The first set again, with 30% of the views missing the board's first row (make_partial.py):
+    # partial views, which calibrateMultiview takes as (-1, -1) image points.
+    "rig3x60_partial|1|--cameras 3 --views 60 --layout ring --arc 180 --models brown-conrady4 --noise 0.3|0.3"
 )
 
 run_limited() {
@@ -136,7 +139,7 @@ MANIFEST=$OUT/manifest.tsv
 : > "$MANIFEST"
 echo "== generating data sets in $OUT"
 for entry in "${DATASETS[@]}"; do
-    IFS='|' read -r name off args <<<"$entry"
+    IFS='|' read -r name off args partial <<<"$entry"
     if [[ -n "$ONLY" ]] && ! grep -qE -- "$ONLY" <<<"$name"; then continue; fi
     large=0; [[ "$args" == *"--views 500"* ]] && large=1
     if [[ $QUICK -eq 1 && $large -eq 1 ]]; then echo "  skip $name (--quick)"; continue; fi
@@ -147,6 +150,11 @@ for entry in "${DATASETS[@]}"; do
     rm -f "$file"
     "${gen[@]}" >"$OUT/$name.synth.log" 2>&1 </dev/null \
         || { cat "$OUT/$name.synth.log" >&2; die "generating $name failed"; }
+    if [[ -n "$partial" ]]; then
+        echo "  make_partial.py $file $file --fraction $partial --seed $((SEED + off))"
+        "$PY" "$BENCH/make_partial.py" "$file" "$file" --fraction "$partial" --seed $((SEED + off)) \
+            >>"$OUT/$name.synth.log" 2>&1 || { cat "$OUT/$name.synth.log" >&2; die "make_partial.py failed for $name"; }
+    fi
     if [[ -n "$REPEATS" ]]; then ours=$REPEATS; cv=$REPEATS; else ours=5; cv=3; fi
     [[ $large -eq 1 ]] && cv=$REPEATS_LARGE
     printf '%s\t%s\t%s\t%s\t%s\n' "$name" "$file" "$ours" "$cv" "$large" >>"$MANIFEST"
