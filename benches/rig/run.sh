@@ -165,7 +165,7 @@ done
 FAILED=0
 while IFS=$'\t' read -r -u 3 name file ours cv large; do
     base=$OUT/$name
-    rm -f "$base".calib.json "$base".calib.time "$base".row.json "$base".*.log "$base".status
+    rm -f "$base".calib.json "$base".calib.time "$base".row.json "$base".calib.log "$base".opencv.log "$base".status
     echo "== $name"
     cmd=("$CALIB" rig "$file" -o "$base.calib.json" --threads 1 --repeat "$ours" -q)
     echo "  calib rig $file -o $base.calib.json --threads 1 --repeat $ours -q"
