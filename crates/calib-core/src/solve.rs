@@ -12,7 +12,7 @@ use crate::outliers::{self, OutlierRejection};
 use crate::problem::{BoardNormalization, JointProblem};
 use crate::warnings::{Warning, WarningCode};
 use camera_model::{
-    AnyCamera, AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization, So3,
+    AnyCamera, AxisAngle, CameraModel, EulerXyz, Pose, RotationKind, RotationParameterization, So3,
 };
 use lm_solver::manifold::RotationVector;
 use lm_solver::{
@@ -566,11 +566,36 @@ fn user_error(problem: &JointProblem, blocks: &Blocks, error: CovarianceError) -
                 hint: "add views with the board tilted and spread over the image, or fix these parameters".into(),
             }
         }
-        CovarianceError::SingularEliminatedBlock { block } => CalibrationError::NotDetermined {
-            what: describe_block(problem, blocks, ParameterBlockId(block)),
-            hint: "the board must show at least 4 well-spread points that are not on one line"
-                .into(),
-        },
+        CovarianceError::SingularEliminatedBlock { block } => {
+            // A view of a full board determines its pose; a rational lens model whose
+            // denominator nearly vanishes at some of its points (derivatives of 1e8 px and more)
+            // makes the pose block numerically singular instead.
+            let rational = blocks
+                .frames
+                .iter()
+                .position(|&b| b == ParameterBlockId(block))
+                .and_then(|f| {
+                    problem
+                        .observations
+                        .iter()
+                        .filter(|o| o.frame == f)
+                        .map(|o| problem.cameras[o.camera].model())
+                        .find(|m| matches!(m, CameraModel::Rational8 | CameraModel::ThinPrism12))
+                });
+            let hint = match rational {
+                Some(model) => format!(
+                    "the board must show at least 4 well-spread points that are not on one line, or the {model} lens model reached a state where its denominator nearly vanishes at this view's points (the optimization stalled in its flat valley): try brown-conrady5, or --damping marquardt"
+                ),
+                None => {
+                    "the board must show at least 4 well-spread points that are not on one line"
+                        .into()
+                }
+            };
+            CalibrationError::NotDetermined {
+                what: describe_block(problem, blocks, ParameterBlockId(block)),
+                hint,
+            }
+        }
         CovarianceError::Singular { .. } => CalibrationError::NotDetermined {
             what: "some combination of the parameters".into(),
             hint: "add views with the board tilted and spread over the image, or fix parameters"
