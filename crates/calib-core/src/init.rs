@@ -285,6 +285,9 @@ pub const SCORING_VIEWS: usize = 40;
 pub const SCORING_POINTS: usize = 100;
 /// See [`SCORING_VIEWS`].
 pub const FISHEYE_SCORING_POINTS: usize = 30;
+/// Views scoring a fisheye focal length: the equidistant poses of 20 views fix it as well as
+/// 40 (the fisheye sweep reaches the same minima), at half the cost.
+pub const FISHEYE_SCORING_VIEWS: usize = 20;
 
 /// The relative depth range of a view's points, from its homography alone (independent of the
 /// intrinsics): with `w(X) = h31 X + h32 Y + h33` proportional to the depth of board point `X`,

@@ -8,8 +8,8 @@ use crate::data::{ImageSize, View};
 use crate::diagnostics::{check_inside_image, duplicate_views};
 use crate::error::{CalibrationError, PointKind};
 use crate::init::{
-    FISHEYE_SCORING_POINTS, ScoringCamera, StartMethod, fisheye_pose, fisheye_search, initial_pose,
-    scoring_views, start_intrinsics,
+    FISHEYE_SCORING_POINTS, FISHEYE_SCORING_VIEWS, ScoringCamera, StartMethod, fisheye_pose,
+    fisheye_search, initial_pose, scoring_views, start_intrinsics,
 };
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
@@ -333,7 +333,8 @@ pub fn prepare_camera(
                 model: options.model,
                 fixed: fixed_camera_components(options, used.len()),
             };
-            let views = scoring_views(&homographies, &start_views, FISHEYE_SCORING_POINTS);
+            let mut views = scoring_views(&homographies, &start_views, FISHEYE_SCORING_POINTS);
+            views.truncate(FISHEYE_SCORING_VIEWS);
             let f = fisheye_search(image_size, &scoring, &views).ok_or_else(|| {
                 CalibrationError::Initialization {
                     reason: "no focal length of an equidistant (fisheye) camera explains the views: are the points and the image size right?".into(),
