@@ -471,3 +471,153 @@ fn photographs_to_calibration() {
             .contains("counts must be equal")
     );
 }
+
+#[test]
+fn after_calibration_exports_read_back_undistort_and_rectify() {
+    let rig = temp("after-rig.json");
+    let yaml = temp("after-rig.yaml");
+    let ros = temp("after-ros.yaml");
+    run_ok(
+        calib()
+            .args(["stereo", &data("sourishg1/stereo.json"), "-q", "-o"])
+            .arg(&rig)
+            .arg(format!("--export=opencv={}", yaml.display()))
+            .arg(format!("--export=ros={}", ros.display())),
+    );
+    assert!(temp("after-ros-left.yaml").exists() && temp("after-ros-right.yaml").exists());
+    // Each exported file starts a calibration with its camera held fixed: the fixed
+    // intrinsics are reported with zero uncertainty and the same values.
+    let fixed = temp("after-fixed.json");
+    run_ok(
+        calib()
+            .args([
+                "single",
+                &data("sourishg1/left.json"),
+                "-q",
+                "--fix-intrinsics",
+                "--intrinsics",
+            ])
+            .arg(temp("after-ros-left.yaml"))
+            .arg("-o")
+            .arg(&fixed),
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fixed).unwrap()).unwrap();
+    let original: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rig).unwrap()).unwrap();
+    assert_eq!(result["camera"]["fx"], original["left"]["fx"]);
+    assert_eq!(result["camera"]["std"]["fx"], 0.0);
+    run_ok(
+        calib()
+            .args([
+                "stereo",
+                &data("sourishg1/stereo.json"),
+                "-q",
+                "--fix-intrinsics",
+                "--intrinsics",
+            ])
+            .arg(&yaml),
+    );
+    // Export from the result, in every format; kalibr refuses rational8 with a message.
+    for format in ["opencv", "ros", "kalibr"] {
+        run_ok(
+            calib()
+                .args(["export"])
+                .arg(&rig)
+                .args(["--format", format, "-q", "-o"])
+                .arg(temp(&format!("after-{format}.yaml"))),
+        );
+    }
+    let rational = temp("after-rational.json");
+    run_ok(
+        calib()
+            .args([
+                "single",
+                &data("sourishg1/left.json"),
+                "-q",
+                "--model",
+                "rational8",
+                "-o",
+            ])
+            .arg(&rational),
+    );
+    let run = calib()
+        .arg("export")
+        .arg(&rational)
+        .args(["--format", "kalibr", "-o"])
+        .arg(temp("after-bad.yaml"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("no equivalent of the rational8"));
+    // Rectification JSON and images; undistorted images keep their names.
+    let rect = temp("after-rect.json");
+    let out = temp("after-rectified");
+    run_ok(
+        calib()
+            .arg("rectify")
+            .arg(&rig)
+            .args(["-q", "-o"])
+            .arg(&rect)
+            .args([
+                "--images",
+                &data("sourishg1/images/left3.jpg"),
+                "--right",
+                &data("sourishg1/images/right3.jpg"),
+                "--out",
+            ])
+            .arg(&out),
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rect).unwrap()).unwrap();
+    assert_eq!(r["P2"].as_array().unwrap().len(), 3);
+    assert_eq!(r["Q"][3].as_array().unwrap().len(), 4);
+    assert!(out.join("left3.jpg").exists() && out.join("right3.jpg").exists());
+    let und = temp("after-undistorted");
+    run_ok(
+        calib()
+            .arg("undistort")
+            .arg(temp("after-ros-left.yaml"))
+            .arg(data("sourishg1/images/left3.jpg"))
+            .arg("-q")
+            .arg("-o")
+            .arg(&und),
+    );
+    // The opencv file of a rig is not a single camera.
+    let run = calib()
+        .arg("undistort")
+        .arg(&yaml)
+        .arg(data("sourishg1/images/left3.jpg"))
+        .arg("-o")
+        .arg(&und)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let single = temp("after-left.json");
+    run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
+            .arg(&single),
+    );
+    run_ok(
+        calib()
+            .arg("undistort")
+            .arg(&single)
+            .arg(data("sourishg1/images/left3.jpg"))
+            .args(["-q", "--alpha", "1", "-o"])
+            .arg(&und),
+    );
+    assert!(und.join("left3.jpg").exists() && und.join("undistortion.json").exists());
+    // Writing over the input image is refused.
+    let images = std::path::Path::new(&data("sourishg1/images")).to_path_buf();
+    let run = calib()
+        .arg("undistort")
+        .arg(&single)
+        .arg(data("sourishg1/images/left3.jpg"))
+        .arg("-o")
+        .arg(&images)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("replace the input"));
+}
