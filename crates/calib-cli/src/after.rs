@@ -500,3 +500,77 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+/// Writes a report, printing where unless quiet.
+pub fn write_report_to(
+    input: &calib_export::ReportInput,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let written = calib_export::write_report(input, dir)
+        .map_err(|e| Failure(format!("--report {}: {e}", dir.display())))?;
+    if !quiet {
+        print_stdout(&format!(
+            "report: {} ({} files)\n",
+            dir.join("index.html").display(),
+            written.len()
+        ))?;
+    }
+    Ok(())
+}
+
+/// Arguments of `calib report`.
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    /// A result of calib single or calib stereo (JSON).
+    #[arg(value_name = "RESULT.json")]
+    pub input: String,
+    /// The observation file the result was calibrated from (from the user or calib detect):
+    /// needed for the residual, coverage and uncertainty plots.
+    #[arg(long, value_name = "OBS.json")]
+    pub observations: Option<String>,
+    /// Folder to write index.html and the SVG plots into.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Do not print where the report went.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
+    use calib_core::JsonFile;
+    let (text, name) = calib_core::read_text(
+        Path::new(&args.input),
+        calib_core::io::DEFAULT_MAX_INPUT_BYTES,
+    )?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Failure(format!("{name}: {e}")))?;
+    let format = value
+        .get("format")
+        .and_then(|f| f.as_str())
+        .unwrap_or("")
+        .to_string();
+    let input = if format.starts_with("calib-single-result/") {
+        let result = calib_single::Calibration::from_json(value)
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        let observations = match &args.observations {
+            Some(path) => Some(calib_single::Observations::read(path)?),
+            None => None,
+        };
+        calib_export::ReportInput::single(&result, observations.as_ref())
+    } else if format.starts_with("calib-stereo-result/") {
+        let result = calib_stereo::StereoCalibration::from_json(value)
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        let observations = match &args.observations {
+            Some(path) => Some(calib_stereo::StereoObservations::read(path)?),
+            None => None,
+        };
+        calib_export::ReportInput::stereo(&result, observations.as_ref())
+    } else {
+        return Err(Failure(format!(
+            "{name}: not a calib single or calib stereo result (format '{format}')"
+        )));
+    }
+    .map_err(|e| Failure(format!("{name}: {e}")))?;
+    write_report_to(&input, &args.output, args.quiet)
+}

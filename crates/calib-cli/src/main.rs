@@ -44,6 +44,8 @@ enum Command {
     /// Stereo rectification (Bouguet's, as OpenCV's stereoRectify): R1, R2, P1, P2, Q as JSON
     /// and rectified images.
     Rectify(after::RectifyArgs),
+    /// An HTML report with plots of a calibration result.
+    Report(after::ReportArgs),
     /// Write a synthetic observation file with known truth.
     #[command(subcommand)]
     Synth(synth::SynthCommand),
@@ -68,6 +70,7 @@ fn main() -> ExitCode {
         Command::Export(args) => after::run_export(&args),
         Command::Undistort(args) => after::run_undistort(&args),
         Command::Rectify(args) => after::run_rectify(&args),
+        Command::Report(args) => after::run_report(&args),
         Command::Synth(command) => synth::run(&command),
     };
     match result {

@@ -302,8 +302,12 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         )?;
     }
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
-    calibrate_and_report(&source, &inputs, &args.output, || {
+    let result = calibrate_and_report(&source, &inputs, &args.output, || {
         calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
+    if let Some(dir) = &args.output.report {
+        let input = calib_export::ReportInput::single(&result, Some(&observations))?;
+        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+    }
     Ok(())
 }

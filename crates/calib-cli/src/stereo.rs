@@ -277,8 +277,12 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
         .chain(&args.right)
         .map(String::as_str)
         .collect();
-    calibrate_and_report(&source, &inputs, &args.output, || {
+    let result = calibrate_and_report(&source, &inputs, &args.output, || {
         calibrate_stereo(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
+    if let Some(dir) = &args.output.report {
+        let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;
+        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+    }
     Ok(())
 }

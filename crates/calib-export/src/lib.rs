@@ -8,6 +8,8 @@
 //!   camera matrix, chosen like OpenCV's `getOptimalNewCameraMatrix`; [`rectify`] computes
 //!   Bouguet's stereo rectification (`R1`, `R2`, `P1`, `P2`, `Q`); [`remap`] builds the pixel
 //!   maps once per camera and resamples images (bilinear) in parallel.
+//! * [`report`] writes an HTML page with SVG plots (residuals, coverage, per-view RMS, board
+//!   poses, distortion field, projection uncertainty).
 //!
 //! Conventions are the workspace's: pixels as in OpenCV (`(0, 0)` is the centre of the top-left
 //! pixel), distortion coefficients in OpenCV's order, `X_right = R X_left + T`. The math and the
@@ -15,12 +17,14 @@
 #![deny(missing_docs)]
 
 pub mod calibration;
+pub mod covariance;
 pub mod error;
 pub mod files;
 pub mod kalibr;
 pub mod opencv;
 pub mod rectify;
 pub mod remap;
+pub mod report;
 pub mod ros;
 pub mod undistort;
 mod yaml;
@@ -32,4 +36,5 @@ pub use files::{
 };
 pub use rectify::{Rectification, stereo_rectify};
 pub use remap::{PixelMap, remap_image};
+pub use report::{ReportInput, write_report};
 pub use undistort::{Rect, optimal_new_camera_matrix, undistort_point, undistort_points};
