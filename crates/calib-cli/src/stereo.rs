@@ -255,10 +255,13 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
             } else {
                 &mut options.right
             };
+            // An explicit model for this camera: --model, or --right-model for the right one.
+            let explicit_model =
+                args.camera.model.is_some() || (k == 1 && args.right_model.is_some());
             crate::after::apply_camera_file(
                 side,
                 camera,
-                args.camera.model.is_some(),
+                explicit_model,
                 args.camera.fix_intrinsics,
                 what,
             )?;
