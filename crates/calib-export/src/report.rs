@@ -16,7 +16,7 @@
 //! The residual, coverage and uncertainty plots need the observations (the board points and
 //! pixels); without them the report has the other plots and says what is missing.
 
-use crate::covariance::{CovarianceView, intrinsics_covariance, projection_covariance, worst_std};
+use crate::covariance::{CovarianceView, Uncertainty, worst_std};
 use crate::error::ExportError;
 use calib_core::ImageSize;
 use camera_model::{AnyCamera, Pose, UndistortOptions};
@@ -272,6 +272,52 @@ fn chart_size(size: ImageSize) -> (u32, u32) {
     (w, h)
 }
 
+/// Height of the colour bar under a heat map, pixels.
+const BAR_HEIGHT: u32 = 44;
+
+/// Size of a heat map's SVG: the image chart and its colour bar.
+fn heat_size(size: ImageSize) -> (u32, u32) {
+    let (w, h) = chart_size(size);
+    (w, h + BAR_HEIGHT)
+}
+
+/// Draws a colour bar from 0 to `max` (`label` names the unit) along the bottom of `root` and
+/// returns the area above it for the map.
+fn colour_bar<'b>(
+    root: &DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    max: f64,
+    label: &str,
+) -> DrawResult<DrawingArea<SVGBackend<'b>, plotters::coord::Shift>> {
+    let (_, h) = root.dim_in_pixel();
+    let (top, bottom) = root.split_vertically(h.saturating_sub(BAR_HEIGHT));
+    let max = if max.is_finite() && max > 0.0 {
+        max
+    } else {
+        1.0
+    };
+    let mut c = ChartBuilder::on(&bottom)
+        .margin_left(55)
+        .margin_right(20)
+        .x_label_area_size(22)
+        .build_cartesian_2d(0.0..max, 0.0..1.0)?;
+    c.configure_mesh()
+        .disable_mesh()
+        .disable_y_axis()
+        .x_labels(6)
+        .x_desc(label)
+        .x_label_style(("sans-serif", 10))
+        .draw()?;
+    let steps = 60;
+    c.draw_series((0..steps).map(|i| {
+        let (a, b) = (i as f64 / steps as f64, (i + 1) as f64 / steps as f64);
+        Rectangle::new(
+            [(a * max, 0.0), (b * max, 1.0)],
+            colour((a + b) / 2.0).filled(),
+        )
+    }))?;
+    Ok(top)
+}
+
 /// Residuals `projected - measured` of each point of each view with points.
 fn residuals(camera: &ReportCamera) -> Vec<Vec<Residual>> {
     camera
@@ -494,8 +540,9 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         let empty = counts.iter().filter(|&&c| c == 0).count();
         let text = svg(
             |root| {
+                let map = colour_bar(root, most, "corners per cell (grey: none)")?;
                 let mut c = image_chart(
-                    root,
+                    &map,
                     size,
                     &format!(
                         "observed corners per {cell:.0} px cell (max {most:.0}; {empty} of {} cells empty)",
@@ -519,7 +566,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
                 }))?;
                 Ok(())
             },
-            chart,
+            heat_size(size),
         )?;
         plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: "How many corners were observed in each cell (grey: none). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.".into() }, text));
     } else {
@@ -568,11 +615,38 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
     plots.push((Plot { file: format!("rms-{name}.svg"), title: "RMS per view".into(), caption: "Each view's RMS reprojection error, worst first. A view far above the others (a blurred image, a mislabelled board) is worth checking or removing.".into() }, text));
 
     plots.push((Plot { file: format!("poses-{name}.svg"), title: "Board poses".into(), caption: "The camera (frustum at the origin, looking along z) and the board in every view, in the camera's frame (board units). Good data shows boards at several distances and tilted in different directions, not all parallel to the image.".into() }, poses_svg(camera)?));
-    let (text, max_shift) = distortion_svg(camera)?;
-    plots.push((Plot { file: format!("distortion-{name}.svg"), title: "Distortion field".into(), caption: format!("How far the lens moves each pixel from where an ideal pinhole camera would put it (|distorted - undistorted|, colour, up to {max_shift:.1} px) and in which direction (arrows, towards the distorted position). Pixels where the model cannot be inverted are left white.") }, text));
+    let validity = camera
+        .camera
+        .validity(camera.image_size.width, camera.image_size.height);
+    let (text, max_shift) = distortion_svg(camera, &validity)?;
+    let valid_text = if validity.covers_image(0.0) {
+        format!(
+            "The model is one-to-one over the whole image: it stays valid out to {} from the principal point, the farthest image corner being {:.0} px away (validity coverage {:.2}).",
+            if validity.valid_radius_px.is_finite() {
+                let shown = if validity.valid_radius_px
+                    < camera.image_size.width.max(camera.image_size.height) as f64
+                {
+                    "black dashes where the circle crosses the image"
+                } else {
+                    "outside the image"
+                };
+                format!("{:.0} px ({shown})", validity.valid_radius_px)
+            } else {
+                "as far as it was checked".to_string()
+            },
+            validity.image_radius_px,
+            validity.coverage
+        )
+    } else {
+        format!(
+            "The model stops being one-to-one {:.0} px from the principal point (red dashed circle; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the circle the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
+            validity.valid_radius_px, validity.image_radius_px, validity.coverage
+        )
+    };
+    plots.push((Plot { file: format!("distortion-{name}.svg"), title: "Distortion field".into(), caption: format!("How far the lens moves each pixel from where an ideal pinhole camera would put it (|distorted - undistorted|, colour, up to {max_shift:.1} px) and in which direction (arrows, towards the distorted position). Pixels where the model cannot be inverted are left white. {valid_text}") }, text));
     if have_points {
         match uncertainty_svg(camera) {
-            Ok((text, median)) => plots.push((Plot { file: format!("uncertainty-{name}.svg"), title: "Projection uncertainty".into(), caption: format!("Standard deviation (worst direction, pixels) of where a point seen at each pixel projects, propagated from the covariance of the intrinsics (the camera frame held fixed, so it is the same at every distance). Median {median:.3} px. It grows where few corners were observed: compare with the coverage plot.") }, text)),
+            Ok(u) => plots.push((Plot { file: format!("uncertainty-{name}.svg"), title: "Projection uncertainty".into(), caption: format!("Standard deviation (worst direction, pixels) of where a point seen at each pixel projects, {} board units from the camera (the boards' median distance), propagated from the covariance of the intrinsics and the board poses as mrcal does (the point is fixed relative to the boards). Median over the image {:.3} px; at infinity {:.3} px; at twice the distance {:.3} px; intrinsics alone (camera frame held) {:.3} px; pixel noise {:.3} px. It grows where few corners were observed (compare with the coverage plot) and away from the boards' distance.", significant(u.distance), u.median, u.median_infinity, u.median_double, u.median_intrinsics, u.sigma) }, u.text)),
             Err(e) => notes.push(format!("No uncertainty plot: {e}")),
         }
     }
@@ -676,7 +750,10 @@ fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
     )
 }
 
-fn distortion_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
+fn distortion_svg(
+    camera: &ReportCamera,
+    validity: &camera_model::Validity,
+) -> DrawResult<(String, f64)> {
     let size = camera.image_size;
     let k = camera.camera.intrinsics;
     let cell = (size.width.max(size.height) as f64 / 32.0).max(1.0);
@@ -704,8 +781,9 @@ fn distortion_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
         .fold(0.0, f64::max);
     let text = svg(
         |root| {
+            let map = colour_bar(root, max_shift, "|distorted - undistorted| (px)")?;
             let mut c = image_chart(
-                root,
+                &map,
                 size,
                 &format!(
                     "distortion: |shift| up to {max_shift:.1} px (arrows x{:.1})",
@@ -739,14 +817,70 @@ fn distortion_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
                         ))
                     }),
             )?;
+            // The validity radius: dashes of the circle inside the image.
+            let radius = validity.valid_radius_px;
+            if radius.is_finite() && radius > 0.0 {
+                let style = if validity.covers_image(0.0) {
+                    BLACK.stroke_width(2)
+                } else {
+                    RED.stroke_width(3)
+                };
+                let (w, h) = (size.width as f64, size.height as f64);
+                let inside =
+                    |x: f64, y: f64| (-0.5..=w - 0.5).contains(&x) && (-0.5..=h - 0.5).contains(&y);
+                let steps = 240;
+                c.draw_series((0..steps).step_by(2).filter_map(|i| {
+                    let a0 = std::f64::consts::TAU * i as f64 / steps as f64;
+                    let a1 = std::f64::consts::TAU * (i + 1) as f64 / steps as f64;
+                    let p0 = (k.cx + radius * a0.cos(), k.cy + radius * a0.sin());
+                    let p1 = (k.cx + radius * a1.cos(), k.cy + radius * a1.sin());
+                    (inside(p0.0, p0.1) && inside(p1.0, p1.1))
+                        .then(|| PathElement::new(vec![p0, p1], style))
+                }))?;
+            }
             Ok(())
         },
-        chart_size(size),
+        heat_size(size),
     )?;
     Ok((text, max_shift))
 }
 
-fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
+/// The projection-uncertainty map and the numbers its caption quotes.
+struct UncertaintyPlot {
+    text: String,
+    /// The distance of the map (the boards' median distance), board units.
+    distance: f64,
+    /// Median over the image of the worst-direction standard deviation at `distance`, pixels.
+    median: f64,
+    /// The same at infinity.
+    median_infinity: f64,
+    /// The same at twice `distance`.
+    median_double: f64,
+    /// The same from the intrinsics alone (camera frame held).
+    median_intrinsics: f64,
+    /// Pixel noise, pixels.
+    sigma: f64,
+}
+
+/// `v` with four significant digits (no exponent for everyday magnitudes).
+fn significant(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.retain(|v| v.is_finite());
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<UncertaintyPlot> {
     let views: Vec<CovarianceView> = camera
         .views
         .iter()
@@ -762,40 +896,92 @@ fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
             })
         })
         .collect();
-    let covariance = intrinsics_covariance(&camera.camera, &views, &camera.fixed)?;
+    let uncertainty = Uncertainty::new(&camera.camera, &views, &camera.fixed)?;
+    // The boards' median distance: of each board's centre from the camera.
+    let distance = median(
+        views
+            .iter()
+            .filter(|v| !v.object.is_empty())
+            .map(|v| {
+                let centre =
+                    v.object.iter().map(|p| p.coords).sum::<Vector3<f64>>() / v.object.len() as f64;
+                (v.pose.rotation * centre + v.pose.translation).norm()
+            })
+            .collect(),
+    );
+    if !(distance.is_finite() && distance > 0.0) {
+        return Err("no board distance".into());
+    }
     let size = camera.image_size;
     let cell = (size.width.max(size.height) as f64 / 40.0).max(1.0);
     let (nx, ny) = (
         (size.width as f64 / cell).ceil() as usize,
         (size.height as f64 / cell).ceil() as usize,
     );
-    let mut values = vec![f64::NAN; nx * ny];
-    for j in 0..ny {
-        for i in 0..nx {
-            let q = Vector2::new((i as f64 + 0.5) * cell - 0.5, (j as f64 + 0.5) * cell - 0.5);
-            if let Ok(ray) = camera.camera.pixel_to_ray(&q, &UndistortOptions::default())
-                && let Some(c) =
-                    projection_covariance(&camera.camera, &covariance, &ray.into_inner())
-            {
-                values[j * nx + i] = worst_std(&c);
-            }
-        }
-    }
-    let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    let centre = |k: usize| {
+        Vector2::new(
+            ((k % nx) as f64 + 0.5) * cell - 0.5,
+            ((k / nx) as f64 + 0.5) * cell - 0.5,
+        )
+    };
+    let std_at = |q: &Vector2<f64>, d: Option<f64>| {
+        uncertainty
+            .projection(q, d)
+            .map_or(f64::NAN, |c| worst_std(&c))
+    };
+    let values: Vec<f64> = (0..nx * ny)
+        .map(|k| std_at(&centre(k), Some(distance)))
+        .collect();
+    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
     if finite.is_empty() {
         return Err("no pixel could be evaluated".into());
     }
-    finite.sort_by(f64::total_cmp);
-    let median = finite[finite.len() / 2];
-    let top = finite[finite.len() - 1].max(1e-12);
+    let median_d = median(finite.clone());
+    let top = finite.iter().copied().fold(0.0, f64::max).max(1e-12);
+    // The comparison numbers on a coarser grid (every other cell).
+    let coarse: Vec<Vector2<f64>> = (0..nx * ny)
+        .filter(|k| (k % nx) % 2 == 0 && (k / nx) % 2 == 0)
+        .map(centre)
+        .collect();
+    let median_infinity = median(coarse.iter().map(|q| std_at(q, None)).collect());
+    let median_double = median(
+        coarse
+            .iter()
+            .map(|q| std_at(q, Some(2.0 * distance)))
+            .collect(),
+    );
+    let covariance = uncertainty.intrinsics_covariance();
+    let median_intrinsics = median(
+        coarse
+            .iter()
+            .map(|q| {
+                camera
+                    .camera
+                    .pixel_to_ray(q, &UndistortOptions::default())
+                    .ok()
+                    .and_then(|ray| {
+                        crate::covariance::projection_covariance(
+                            &camera.camera,
+                            &covariance,
+                            &ray.into_inner(),
+                        )
+                    })
+                    .map_or(f64::NAN, |c| worst_std(&c))
+            })
+            .collect(),
+    );
     // Ten bands of equal width: a filled contour map.
     let band = |v: f64| ((v / top * 10.0).floor().min(9.0) + 0.5) / 10.0;
     let text = svg(
         |root| {
+            let map = colour_bar(root, top, "projection std, worst direction (px)")?;
             let mut c = image_chart(
-                root,
+                &map,
                 size,
-                &format!("projection std (px): 10 bands from 0 to {top:.3}; median {median:.3}"),
+                &format!(
+                    "projection std (px) at distance {}: 10 bands from 0 to {top:.3}; median {median_d:.3}",
+                    significant(distance)
+                ),
             )?;
             c.draw_series((0..nx * ny).filter(|k| values[*k].is_finite()).map(|k| {
                 let (i, j) = ((k % nx) as f64, (k / nx) as f64);
@@ -809,7 +995,15 @@ fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<(String, f64)> {
             }))?;
             Ok(())
         },
-        chart_size(size),
+        heat_size(size),
     )?;
-    Ok((text, median))
+    Ok(UncertaintyPlot {
+        text,
+        distance,
+        median: median_d,
+        median_infinity,
+        median_double,
+        median_intrinsics,
+        sigma: uncertainty.sigma(),
+    })
 }
