@@ -276,6 +276,12 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
                     .into(),
             ));
         }
+        if !args.output.export.is_empty() || args.output.report.is_some() {
+            return Err(Failure(
+                "--compare-models writes a comparison, not a calibration: calibrate with the chosen --model to --export or --report"
+                    .into(),
+            ));
+        }
         let comparison =
             calib_single::compare_models(&observations, &options, &calib_single::compare::MODELS);
         if !args.output.quiet {

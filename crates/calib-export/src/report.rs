@@ -93,6 +93,44 @@ fn observation_mismatch(what: &str) -> ExportError {
     )
 }
 
+/// Refuses observations that do not give (within 5%: duplicate points the calibration dropped
+/// count here) the view's stored RMS at its pose: the file is not the one the result was
+/// calibrated from (a different camera, another set's views, reordered corners).
+fn check_view_rms(
+    camera: &AnyCamera,
+    pose: &Pose,
+    points: &ViewPoints,
+    rejected: &[usize],
+    stored: f64,
+    what: &str,
+) -> Result<(), ExportError> {
+    let (object, pixels) = points;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (i, (x, m)) in object.iter().zip(pixels).enumerate() {
+        if rejected.contains(&i) {
+            continue;
+        }
+        match camera.project(pose, x) {
+            Ok(q) => {
+                sum += (q - m).norm_squared();
+                n += 1;
+            }
+            Err(_) => {
+                return Err(observation_mismatch(&format!(
+                    "{what}: a point does not project"
+                )));
+            }
+        }
+    }
+    let rms = if n > 0 { (sum / n as f64).sqrt() } else { 0.0 };
+    if (rms - stored).abs() > 0.05 * stored + 1e-6 {
+        return Err(observation_mismatch(&format!(
+            "{what}: RMS {rms:.4} px from the file, {stored:.4} px in the result"
+        )));
+    }
+    Ok(())
+}
+
 impl ReportInput {
     /// The report of a single-camera result, with the observations it was calibrated from (if
     /// given: they must be the same file).
@@ -124,6 +162,16 @@ impl ReportInput {
                 }
                 None => None,
             };
+            if let Some(points) = &points {
+                check_view_rms(
+                    &result.camera,
+                    &v.pose,
+                    points,
+                    &v.rejected_points,
+                    v.rms,
+                    &format!("view {} ({})", v.index, v.name),
+                )?;
+            }
             views.push(ReportView {
                 name: v.name.clone(),
                 pose: v.pose,
@@ -191,6 +239,16 @@ impl ReportInput {
                     p.names.1.clone()
                 };
                 let rms = if side == 0 { p.rms_left } else { p.rms_right };
+                if let Some(points) = &points {
+                    check_view_rms(
+                        &estimate.camera,
+                        &pose,
+                        points,
+                        rejected,
+                        rms,
+                        &format!("pair {} ({})", p.index, ["left", "right"][side]),
+                    )?;
+                }
                 views.push(ReportView {
                     name,
                     pose,
