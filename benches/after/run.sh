@@ -37,3 +37,19 @@ fi
 "$VENV/bin/python" -c "import cv2, numpy" 2>/dev/null \
     || "$VENV/bin/python" -m pip install --quiet opencv-python-headless numpy
 "$VENV/bin/python" "$HERE/compare_opencv.py" --calib "$CALIB" --data "$ROOT/data/sourishg1" | tee "$HERE/results.txt"
+# 5. Reports rendered in headless Chromium: no broken images (render.sh), for a single camera, a
+# stereo rig, and a rational8 fit whose lens model folds inside the image (red validity circle).
+OUT=$(mktemp -d /tmp/calib-after-reports-XXXXXX)
+DATA=$ROOT/data/sourishg1
+{
+    echo
+    echo "5. Reports in headless Chromium (benches/after/render.sh; folder $OUT)"
+    "$CALIB" single "$DATA/left.json" -q -o "$OUT/left.json" --report "$OUT/single"
+    "$CALIB" stereo "$DATA/stereo.json" -q -o "$OUT/rig.json" --report "$OUT/stereo" 2>/dev/null
+    "$CALIB" single "$DATA/left.json" -q --model rational8 -o "$OUT/rational8.json" --report "$OUT/rational8" 2>/dev/null
+    for r in single stereo rational8; do
+        echo "  $r: $("$HERE/render.sh" "$OUT/$r" "$OUT/$r.png" || true)"
+    done
+} | tee -a "$HERE/results.txt"
+grep -q " [1-9][0-9]* broken" "$HERE/results.txt" && { echo "run.sh: broken images in a report" >&2; exit 1; }
+exit 0
