@@ -80,6 +80,7 @@ pub fn run(args: &RigArgs) -> Result<(), Failure> {
     // plug in: docs/after-calibration.md ("Rigs").
     for (given, option) in [
         (!args.output.export.is_empty(), "--export"),
+        (args.output.report.is_some(), "--report"),
         (args.camera.intrinsics.is_some(), "--intrinsics"),
         (args.camera.fix_intrinsics, "--fix-intrinsics"),
     ] {

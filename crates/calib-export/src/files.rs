@@ -176,6 +176,10 @@ pub fn parse_calibration(text: &str, path: &str) -> Result<Calibrated, ExportErr
         } else if format.starts_with("calib-stereo-result/") {
             let s = calib_stereo::StereoCalibration::from_json(value).map_err(content)?;
             Calibrated::Stereo(StereoRig::from(&s))
+        } else if format.starts_with("calib-rig-result/") {
+            return Err(ExportError::Unsupported(format!(
+                "{path}: a calib rig result; rig results cannot be exported or read here yet (calib single and calib stereo results can)"
+            )));
         } else {
             return Err(ExportError::UnknownFormat {
                 path: path.to_string(),
