@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 bad input or failed calibration (one-line message on stderr); 2 bad
 //! command line (from the argument parser).
 
+mod after;
 mod detect;
 mod rig;
 mod run;
@@ -35,6 +36,16 @@ enum Command {
     Rig(rig::RigArgs),
     /// Detect a chessboard's corners in photographs and write an observation file.
     Detect(detect::DetectArgs),
+    /// Write a calibration result (or any exported file) as OpenCV, ROS or Kalibr YAML.
+    Export(after::ExportArgs),
+    /// Undistort images with a calibrated camera (new camera matrix chosen like OpenCV's
+    /// getOptimalNewCameraMatrix).
+    Undistort(after::UndistortArgs),
+    /// Stereo rectification (Bouguet's, as OpenCV's stereoRectify): R1, R2, P1, P2, Q as JSON
+    /// and rectified images.
+    Rectify(after::RectifyArgs),
+    /// An HTML report with plots of a calibration result.
+    Report(after::ReportArgs),
     /// Write a synthetic observation file with known truth.
     #[command(subcommand)]
     Synth(synth::SynthCommand),
@@ -56,6 +67,10 @@ fn main() -> ExitCode {
         Command::Stereo(args) => stereo::run(&args),
         Command::Rig(args) => rig::run(&args),
         Command::Detect(args) => detect::run(&args),
+        Command::Export(args) => after::run_export(&args),
+        Command::Undistort(args) => after::run_undistort(&args),
+        Command::Rectify(args) => after::run_rectify(&args),
+        Command::Report(args) => after::run_report(&args),
         Command::Synth(command) => synth::run(&command),
     };
     match result {

@@ -76,6 +76,20 @@ impl RigArgs {
 }
 
 pub fn run(args: &RigArgs) -> Result<(), Failure> {
+    // Exports and starting from files cover single cameras and stereo rigs so far; where rigs
+    // plug in: docs/after-calibration.md ("Rigs").
+    for (given, option) in [
+        (!args.output.export.is_empty(), "--export"),
+        (args.output.report.is_some(), "--report"),
+        (args.camera.intrinsics.is_some(), "--intrinsics"),
+        (args.camera.fix_intrinsics, "--fix-intrinsics"),
+    ] {
+        if given {
+            return Err(Failure(format!(
+                "{option} is not supported by calib rig yet (calib single and calib stereo have it)"
+            )));
+        }
+    }
     args.output.check_against(&[args.input.as_str()])?;
     if looks_like_image(&args.input) {
         return Err(Failure(format!(
@@ -86,7 +100,8 @@ pub fn run(args: &RigArgs) -> Result<(), Failure> {
     let observations = RigObservations::read_bounded(&args.input, args.output.max_input())?;
     let options = args.options(&observations)?;
     let source = args.input.clone();
-    calibrate_and_report(&source, &args.output, || {
+    calibrate_and_report(&source, &[args.input.as_str()], &args.output, || {
         calibrate_rig(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
-    })
+    })?;
+    Ok(())
 }

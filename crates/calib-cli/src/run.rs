@@ -22,6 +22,14 @@ pub struct OutputArgs {
     /// (1 to 10000).
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10000))]
     pub repeat: u32,
+    /// Also write the result for another tool: FORMAT=FILE with FORMAT opencv, ros or kalibr
+    /// (repeatable; see calib export).
+    #[arg(long, value_name = "FORMAT=FILE")]
+    pub export: Vec<String>,
+    /// Write an HTML report with plots (residuals, coverage, per-view RMS, board poses,
+    /// distortion, projection uncertainty) into DIR (see calib report).
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<std::path::PathBuf>,
     /// Refuse input files larger than this many megabytes.
     #[arg(long, default_value_t = 2048, value_name = "MB")]
     pub max_input_mb: u64,
@@ -37,6 +45,9 @@ impl OutputArgs {
     pub fn check_against(&self, inputs: &[&str]) -> Result<(), Failure> {
         if let Some(out) = &self.output {
             check_not_input(out, inputs)?;
+        }
+        for target in crate::after::export_targets(&self.export)? {
+            check_not_input(&target.path.to_string_lossy(), inputs)?;
         }
         Ok(())
     }
@@ -79,6 +90,8 @@ pub trait Report {
     fn summary(&self) -> String;
     /// The JSON form.
     fn to_json(&self) -> Value;
+    /// The calibration for exports (`None`: the result has no export yet, rigs).
+    fn calibrated(&self) -> Option<calib_export::Calibrated>;
 }
 
 impl Report for calib_single::Calibration {
@@ -96,6 +109,11 @@ impl Report for calib_single::Calibration {
     }
     fn to_json(&self) -> Value {
         calib_single::Calibration::to_json(self)
+    }
+    fn calibrated(&self) -> Option<calib_export::Calibrated> {
+        Some(calib_export::Calibrated::Single(
+            calib_export::CameraCalibration::from(self),
+        ))
     }
 }
 
@@ -115,6 +133,11 @@ impl Report for calib_stereo::StereoCalibration {
     fn to_json(&self) -> Value {
         calib_stereo::StereoCalibration::to_json(self)
     }
+    fn calibrated(&self) -> Option<calib_export::Calibrated> {
+        Some(calib_export::Calibrated::Stereo(
+            calib_export::StereoRig::from(self),
+        ))
+    }
 }
 
 impl Report for calib_rig::RigCalibration {
@@ -133,18 +156,25 @@ impl Report for calib_rig::RigCalibration {
     fn to_json(&self) -> Value {
         calib_rig::RigCalibration::to_json(self)
     }
+    /// Rig exports are not written yet: where they plug in is in docs/after-calibration.md
+    /// ("Rigs"); `calib rig` refuses `--export` before calibrating.
+    fn calibrated(&self) -> Option<calib_export::Calibrated> {
+        None
+    }
 }
 
 /// Runs `calibrate` `output.repeat` times (at least once), keeps the last result with the median
 /// wall time, and reports it: an error for a numerical failure, otherwise the summary on stdout
 /// (unless quiet; it lists the warnings), the warnings on stderr when quiet, and the JSON file
-/// (written atomically).
-/// `source` names the input in messages.
+/// (written atomically), then the exports (`--export`).
+/// `source` names the input in messages; `inputs` are the input files (never overwritten).
 pub fn calibrate_and_report<R: Report>(
     source: &str,
+    inputs: &[&str],
     output: &OutputArgs,
     mut calibrate: impl FnMut() -> Result<R, Failure>,
-) -> Result<(), Failure> {
+) -> Result<R, Failure> {
+    let targets = crate::after::export_targets(&output.export)?;
     let mut result = calibrate()?;
     let mut times = vec![*result.elapsed_mut()];
     for _ in 1..output.repeat.max(1) {
@@ -169,5 +199,11 @@ pub fn calibrate_and_report<R: Report>(
         json["elapsed_seconds_all"] = serde_json::json!(all);
         write_json(path, &json)?;
     }
-    Ok(())
+    if !targets.is_empty() {
+        let calibrated = result
+            .calibrated()
+            .ok_or_else(|| Failure("--export: this result cannot be exported yet".into()))?;
+        crate::after::write_exports(&calibrated, &targets, inputs, output.quiet)?;
+    }
+    Ok(result)
 }

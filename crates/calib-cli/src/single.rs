@@ -17,8 +17,19 @@ pub struct CameraArgs {
     /// Lens model: brown-conrady4 (k1 k2 p1 p2), brown-conrady5 (+k3, OpenCV's default),
     /// rational8, thin-prism12, kannala-brandt4 (fisheye). Also accepted: plumb_bob,
     /// rational_polynomial, equidistant.
-    #[arg(long, default_value = "brown-conrady4", value_name = "MODEL")]
-    pub model: String,
+    /// [default: brown-conrady4, or the model of --intrinsics]
+    #[arg(long, value_name = "MODEL")]
+    pub model: Option<String>,
+    /// Start from the camera in FILE: a calib result (JSON) or an exported OpenCV, ROS or Kalibr
+    /// file (its model, intrinsics and distortion; the image size must match). calib stereo
+    /// takes a rig's file here, and single cameras' files with --left-intrinsics and
+    /// --right-intrinsics.
+    #[arg(long, value_name = "FILE")]
+    pub intrinsics: Option<String>,
+    /// Hold the intrinsics and distortion of --intrinsics (or --left/--right-intrinsics) fixed:
+    /// only the poses (and a stereo rig's R, T) are estimated.
+    #[arg(long)]
+    pub fix_intrinsics: bool,
     /// Hold the principal point at the image centre (or at --guess).
     #[arg(long)]
     pub fix_principal_point: bool,
@@ -114,6 +125,8 @@ impl CameraArgs {
     pub fn options(&self) -> Result<CalibrationOptions, Failure> {
         let model: CameraModel = self
             .model
+            .as_deref()
+            .unwrap_or("brown-conrady4")
             .parse()
             .map_err(|e| Failure(format!("--model: {e}")))?;
         let mut options = CalibrationOptions::default();
@@ -249,9 +262,26 @@ pub fn looks_like_image(path: &str) -> bool {
 }
 
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
-    let options = args.camera.options()?;
+    let mut options = args.camera.options()?;
+    if args.camera.fix_intrinsics && args.camera.intrinsics.is_none() {
+        return Err(Failure(
+            "--fix-intrinsics: give the intrinsics with --intrinsics FILE".into(),
+        ));
+    }
     let (observations, source) = observations(args)?;
     if args.compare_models {
+        if args.camera.intrinsics.is_some() {
+            return Err(Failure(
+                "--compare-models fits every model from its own start; it does not take --intrinsics"
+                    .into(),
+            ));
+        }
+        if !args.output.export.is_empty() || args.output.report.is_some() {
+            return Err(Failure(
+                "--compare-models writes a comparison, not a calibration: calibrate with the chosen --model to --export or --report"
+                    .into(),
+            ));
+        }
         let comparison =
             calib_single::compare_models(&observations, &options, &calib_single::compare::MODELS);
         if !args.output.quiet {
@@ -262,7 +292,28 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         }
         return Ok(());
     }
-    calibrate_and_report(&source, &args.output, || {
+    if let Some(path) = &args.camera.intrinsics {
+        let camera = crate::after::read_single_camera(path, "--intrinsics")?;
+        crate::after::check_image_size(
+            &camera,
+            observations.image_size,
+            &format!("--intrinsics {path}"),
+        )?;
+        crate::after::apply_camera_file(
+            &mut options,
+            &camera,
+            args.camera.model.is_some(),
+            args.camera.fix_intrinsics,
+            &format!("--intrinsics {path}"),
+        )?;
+    }
+    let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
+    let result = calibrate_and_report(&source, &inputs, &args.output, || {
         calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
-    })
+    })?;
+    if let Some(dir) = &args.output.report {
+        let input = calib_export::ReportInput::single(&result, Some(&observations))?;
+        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+    }
+    Ok(())
 }

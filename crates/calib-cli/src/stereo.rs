@@ -46,6 +46,13 @@ pub struct StereoArgs {
     /// Initial intrinsics of the right camera: fx,fy,cx,cy.
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub right_guess: Option<String>,
+    /// Start the left camera from a single camera's calibration file (any format; see
+    /// --intrinsics).
+    #[arg(long, value_name = "FILE")]
+    pub left_intrinsics: Option<String>,
+    /// Start the right camera from a single camera's calibration file.
+    #[arg(long, value_name = "FILE")]
+    pub right_intrinsics: Option<String>,
     /// Hold the left camera's intrinsics and distortion (its single-camera estimate or guess).
     #[arg(long)]
     pub fix_left_intrinsics: bool,
@@ -182,10 +189,103 @@ fn observations(args: &StereoArgs) -> Result<(StereoObservations, String), Failu
     }
 }
 
+/// The cameras of `--intrinsics` (a rig file) and `--left-intrinsics` / `--right-intrinsics`.
+fn camera_files(
+    args: &StereoArgs,
+) -> Result<[Option<(calib_export::CameraCalibration, String)>; 2], Failure> {
+    let mut cameras = [None, None];
+    if let Some(path) = &args.camera.intrinsics {
+        if args.left_intrinsics.is_some() || args.right_intrinsics.is_some() {
+            return Err(Failure(
+                "--intrinsics (a rig) and --left-intrinsics/--right-intrinsics exclude each other"
+                    .into(),
+            ));
+        }
+        match calib_export::read_calibration(std::path::Path::new(path))
+            .map_err(|e| Failure(format!("--intrinsics: {e}")))?
+        {
+            calib_export::Calibrated::Stereo(rig) => {
+                cameras = [
+                    Some((rig.left, format!("--intrinsics {path} (left)"))),
+                    Some((rig.right, format!("--intrinsics {path} (right)"))),
+                ];
+            }
+            calib_export::Calibrated::Single(_) => {
+                return Err(Failure(format!(
+                    "--intrinsics {path}: a single camera; give a rig's file, or single cameras' files with --left-intrinsics and --right-intrinsics"
+                )));
+            }
+        }
+    }
+    for (k, (option, name)) in [
+        (&args.left_intrinsics, "--left-intrinsics"),
+        (&args.right_intrinsics, "--right-intrinsics"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        if let Some(path) = option {
+            cameras[k] = Some((
+                crate::after::read_single_camera(path, name)?,
+                format!("{name} {path}"),
+            ));
+        }
+    }
+    Ok(cameras)
+}
+
 pub fn run(args: &StereoArgs) -> Result<(), Failure> {
-    let options = args.options()?;
+    let mut options = args.options()?;
+    let files = camera_files(args)?;
+    if args.camera.fix_intrinsics && files.iter().all(Option::is_none) {
+        return Err(Failure(
+            "--fix-intrinsics: give the intrinsics with --intrinsics RIG or --left-intrinsics/--right-intrinsics".into(),
+        ));
+    }
     let (observations, source) = observations(args)?;
-    calibrate_and_report(&source, &args.output, || {
+    let sizes = [
+        observations.image_size,
+        observations.right_image_size.or(observations.image_size),
+    ];
+    for (k, file) in files.iter().enumerate() {
+        if let Some((camera, what)) = file {
+            crate::after::check_image_size(camera, sizes[k], what)?;
+            let side = if k == 0 {
+                &mut options.left
+            } else {
+                &mut options.right
+            };
+            // An explicit model for this camera: --model, or --right-model for the right one.
+            let explicit_model =
+                args.camera.model.is_some() || (k == 1 && args.right_model.is_some());
+            crate::after::apply_camera_file(
+                side,
+                camera,
+                explicit_model,
+                args.camera.fix_intrinsics,
+                what,
+            )?;
+            if args.camera.fix_intrinsics {
+                if k == 0 {
+                    options.fix_left_intrinsics = true;
+                } else {
+                    options.fix_right_intrinsics = true;
+                }
+            }
+        }
+    }
+    let inputs: Vec<&str> = args
+        .inputs
+        .iter()
+        .chain(&args.right)
+        .map(String::as_str)
+        .collect();
+    let result = calibrate_and_report(&source, &inputs, &args.output, || {
         calibrate_stereo(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
-    })
+    })?;
+    if let Some(dir) = &args.output.report {
+        let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;
+        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+    }
+    Ok(())
 }

@@ -471,3 +471,433 @@ fn photographs_to_calibration() {
             .contains("counts must be equal")
     );
 }
+
+#[test]
+fn after_calibration_exports_read_back_undistort_and_rectify() {
+    let rig = temp("after-rig.json");
+    let yaml = temp("after-rig.yaml");
+    let ros = temp("after-ros.yaml");
+    run_ok(
+        calib()
+            .args(["stereo", &data("sourishg1/stereo.json"), "-q", "-o"])
+            .arg(&rig)
+            .arg(format!("--export=opencv={}", yaml.display()))
+            .arg(format!("--export=ros={}", ros.display())),
+    );
+    assert!(temp("after-ros-left.yaml").exists() && temp("after-ros-right.yaml").exists());
+    // Each exported file starts a calibration with its camera held fixed: the fixed
+    // intrinsics are reported with zero uncertainty and the same values.
+    let fixed = temp("after-fixed.json");
+    run_ok(
+        calib()
+            .args([
+                "single",
+                &data("sourishg1/left.json"),
+                "-q",
+                "--fix-intrinsics",
+                "--intrinsics",
+            ])
+            .arg(temp("after-ros-left.yaml"))
+            .arg("-o")
+            .arg(&fixed),
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fixed).unwrap()).unwrap();
+    let original: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rig).unwrap()).unwrap();
+    assert_eq!(result["camera"]["fx"], original["left"]["fx"]);
+    assert_eq!(result["camera"]["std"]["fx"], 0.0);
+    run_ok(
+        calib()
+            .args([
+                "stereo",
+                &data("sourishg1/stereo.json"),
+                "-q",
+                "--fix-intrinsics",
+                "--intrinsics",
+            ])
+            .arg(&yaml),
+    );
+    // Export from the result, in every format; kalibr refuses rational8 with a message.
+    for format in ["opencv", "ros", "kalibr"] {
+        run_ok(
+            calib()
+                .args(["export"])
+                .arg(&rig)
+                .args(["--format", format, "-q", "-o"])
+                .arg(temp(&format!("after-{format}.yaml"))),
+        );
+    }
+    let rational = temp("after-rational.json");
+    run_ok(
+        calib()
+            .args([
+                "single",
+                &data("sourishg1/left.json"),
+                "-q",
+                "--model",
+                "rational8",
+                "-o",
+            ])
+            .arg(&rational),
+    );
+    let run = calib()
+        .arg("export")
+        .arg(&rational)
+        .args(["--format", "kalibr", "-o"])
+        .arg(temp("after-bad.yaml"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("no equivalent of the rational8"));
+    // Rectification JSON and images; undistorted images keep their names.
+    let rect = temp("after-rect.json");
+    let out = temp("after-rectified");
+    run_ok(
+        calib()
+            .arg("rectify")
+            .arg(&rig)
+            .args(["-q", "-o"])
+            .arg(&rect)
+            .args([
+                "--images",
+                &data("sourishg1/images/left3.jpg"),
+                "--right",
+                &data("sourishg1/images/right3.jpg"),
+                "--out",
+            ])
+            .arg(&out),
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rect).unwrap()).unwrap();
+    assert_eq!(r["P2"].as_array().unwrap().len(), 3);
+    assert_eq!(r["Q"][3].as_array().unwrap().len(), 4);
+    assert!(out.join("left3.jpg").exists() && out.join("right3.jpg").exists());
+    let und = temp("after-undistorted");
+    run_ok(
+        calib()
+            .arg("undistort")
+            .arg(temp("after-ros-left.yaml"))
+            .arg(data("sourishg1/images/left3.jpg"))
+            .arg("-q")
+            .arg("-o")
+            .arg(&und),
+    );
+    // The opencv file of a rig is not a single camera.
+    let run = calib()
+        .arg("undistort")
+        .arg(&yaml)
+        .arg(data("sourishg1/images/left3.jpg"))
+        .arg("-o")
+        .arg(&und)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let single = temp("after-left.json");
+    run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
+            .arg(&single),
+    );
+    run_ok(
+        calib()
+            .arg("undistort")
+            .arg(&single)
+            .arg(data("sourishg1/images/left3.jpg"))
+            .args(["-q", "--alpha", "1", "-o"])
+            .arg(&und),
+    );
+    assert!(und.join("left3.jpg").exists() && und.join("undistortion.json").exists());
+    // Writing over the input image is refused.
+    let images = std::path::Path::new(&data("sourishg1/images")).to_path_buf();
+    let run = calib()
+        .arg("undistort")
+        .arg(&single)
+        .arg(data("sourishg1/images/left3.jpg"))
+        .arg("-o")
+        .arg(&images)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("replace the input"));
+}
+
+/// `--intrinsics FILE` reads a calib result and every exported format (OpenCV, ROS, Kalibr): held
+/// fixed, the camera comes back with exactly the file's numbers; as a start, it reaches the same
+/// minimum as the closed-form start. calib stereo takes rigs (OpenCV, Kalibr, result) with
+/// --intrinsics and single cameras (ROS's two files) with --left/--right-intrinsics.
+#[test]
+fn intrinsics_accepts_every_exported_format() {
+    let json = |path: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let single = temp("intr-single.json");
+    let mut command = calib();
+    command
+        .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
+        .arg(&single);
+    for format in ["opencv", "ros", "kalibr"] {
+        command.arg(format!(
+            "--export={format}={}",
+            temp(&format!("intr-single-{format}.yaml")).display()
+        ));
+    }
+    run_ok(&mut command);
+    let original = json(&single);
+    let files = [
+        single.clone(),
+        temp("intr-single-opencv.yaml"),
+        temp("intr-single-ros.yaml"),
+        temp("intr-single-kalibr.yaml"),
+    ];
+    for file in &files {
+        let out = temp("intr-fixed.json");
+        run_ok(
+            calib()
+                .args(["single", &data("sourishg1/left.json"), "-q", "--intrinsics"])
+                .arg(file)
+                .arg("--fix-intrinsics")
+                .arg("-o")
+                .arg(&out),
+        );
+        let r = json(&out);
+        for key in ["fx", "fy", "cx", "cy", "distortion"] {
+            assert_eq!(r["camera"][key], original["camera"][key], "{file:?} {key}");
+        }
+        assert_eq!(r["camera"]["model"], original["camera"]["model"]);
+    }
+    // As a start: the same minimum.
+    let out = temp("intr-start.json");
+    run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-q", "--intrinsics"])
+            .arg(temp("intr-single-kalibr.yaml"))
+            .arg("-o")
+            .arg(&out),
+    );
+    let rms = json(&out)["rms"].as_f64().unwrap();
+    assert!(
+        (rms - original["rms"].as_f64().unwrap()).abs() < 1e-6,
+        "{rms}"
+    );
+    // A wider --model starts from the file's camera padded with zeros.
+    run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-q", "--intrinsics"])
+            .arg(temp("intr-single-ros.yaml"))
+            .args(["--model", "brown-conrady5", "-o"])
+            .arg(&out),
+    );
+    assert_eq!(json(&out)["camera"]["model"], "brown-conrady5");
+    // Stereo: rigs with --intrinsics, single cameras with --left/--right-intrinsics.
+    let rig = temp("intr-rig.json");
+    let mut command = calib();
+    command
+        .args(["stereo", &data("sourishg1/stereo.json"), "-q", "-o"])
+        .arg(&rig);
+    for format in ["opencv", "ros", "kalibr"] {
+        command.arg(format!(
+            "--export={format}={}",
+            temp(&format!("intr-rig-{format}.yaml")).display()
+        ));
+    }
+    run_ok(&mut command);
+    let original = json(&rig);
+    let check = |args: &[std::path::PathBuf], flags: &[&str]| {
+        let out = temp("intr-rig-fixed.json");
+        let mut command = calib();
+        command.args([
+            "stereo",
+            &data("sourishg1/stereo.json"),
+            "-q",
+            "--fix-intrinsics",
+        ]);
+        for (flag, file) in flags.iter().zip(args) {
+            command.arg(flag).arg(file);
+        }
+        run_ok(command.arg("-o").arg(&out));
+        let r = json(&out);
+        for side in ["left", "right"] {
+            for key in ["fx", "fy", "cx", "cy", "distortion"] {
+                assert_eq!(r[side][key], original[side][key], "{args:?} {side} {key}");
+            }
+        }
+    };
+    check(std::slice::from_ref(&rig), &["--intrinsics"]);
+    check(&[temp("intr-rig-opencv.yaml")], &["--intrinsics"]);
+    check(&[temp("intr-rig-kalibr.yaml")], &["--intrinsics"]);
+    check(
+        &[
+            temp("intr-rig-ros-left.yaml"),
+            temp("intr-rig-ros-right.yaml"),
+        ],
+        &["--left-intrinsics", "--right-intrinsics"],
+    );
+    // --right-model names the right camera's model when its start comes from a file.
+    let out = temp("intr-rig-model.json");
+    run_ok(
+        calib()
+            .args([
+                "stereo",
+                &data("sourishg1/stereo.json"),
+                "-q",
+                "--right-intrinsics",
+            ])
+            .arg(temp("intr-rig-ros-right.yaml"))
+            .args(["--right-model", "brown-conrady5", "-o"])
+            .arg(&out),
+    );
+    let r = json(&out);
+    assert_eq!(r["left"]["model"], "brown-conrady4");
+    assert_eq!(r["right"]["model"], "brown-conrady5");
+    // A ROS file is one camera: not a rig.
+    let run = calib()
+        .args(["stereo", &data("sourishg1/stereo.json"), "--intrinsics"])
+        .arg(temp("intr-rig-ros-left.yaml"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("--left-intrinsics"));
+}
+
+/// `calib report` from a result (with and without its observations) and `--report DIR` on the
+/// calibrate commands write index.html and every SVG it references.
+#[test]
+fn reports_from_results_and_calibrate_commands() {
+    let check = |dir: &std::path::Path, images: usize| {
+        let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        let sources: Vec<&str> = page
+            .split("<img src=\"")
+            .skip(1)
+            .map(|s| &s[..s.find('"').unwrap()])
+            .collect();
+        assert_eq!(sources.len(), images, "{sources:?}");
+        for src in sources {
+            let text = std::fs::read_to_string(dir.join(src)).unwrap();
+            assert!(
+                text.contains("<svg") && text.trim_end().ends_with("</svg>"),
+                "{src}"
+            );
+        }
+        page
+    };
+    let single = temp("rep-single.json");
+    let dir = temp("rep-single");
+    let run = run_ok(
+        calib()
+            .args(["single", &data("sourishg1/left.json"), "-o"])
+            .arg(&single)
+            .arg("--report")
+            .arg(&dir),
+    );
+    assert!(String::from_utf8_lossy(&run.stdout).contains("index.html"));
+    let page = check(&dir, 7);
+    assert!(page.contains("one-to-one over the whole image") && page.contains("mrcal"));
+    let dir = temp("rep-stereo");
+    run_ok(
+        calib()
+            .args(["stereo", &data("sourishg1/stereo.json"), "-q", "--report"])
+            .arg(&dir),
+    );
+    check(&dir, 14);
+    let dir = temp("rep-cmd");
+    run_ok(
+        calib()
+            .arg("report")
+            .arg(&single)
+            .args(["--observations", &data("sourishg1/left.json"), "-q", "-o"])
+            .arg(&dir),
+    );
+    check(&dir, 7);
+    let dir = temp("rep-bare");
+    run_ok(
+        calib()
+            .arg("report")
+            .arg(&single)
+            .args(["-q", "-o"])
+            .arg(&dir),
+    );
+    let page = check(&dir, 3);
+    assert!(page.contains("--observations"));
+    // The wrong observation file is refused; so is a report with --compare-models.
+    let run = calib()
+        .arg("report")
+        .arg(&single)
+        .args(["--observations", &data("sourishg2/left.json"), "-o"])
+        .arg(temp("rep-wrong"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        run.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let run = calib()
+        .args([
+            "single",
+            &data("sourishg1/left.json"),
+            "--compare-models",
+            "--report",
+        ])
+        .arg(temp("rep-compare"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+}
+
+/// Rig results have no export, report or file start yet (docs/after-calibration.md, "Rigs"):
+/// every such request is refused with a message, none silently ignored.
+#[test]
+fn rigs_refuse_what_they_do_not_have_yet() {
+    let input = temp("norig-obs.json");
+    run_ok(
+        calib()
+            .args(["synth", "rig", "--cameras", "3", "--views", "20", "-o"])
+            .arg(&input),
+    );
+    for extra in [
+        vec![
+            "--export".to_string(),
+            format!("opencv={}", temp("norig.yaml").display()),
+        ],
+        vec![
+            "--report".to_string(),
+            temp("norig-report").display().to_string(),
+        ],
+        vec!["--intrinsics".to_string(), data("sourishg1/left.json")],
+    ] {
+        let run = calib()
+            .arg("rig")
+            .arg(&input)
+            .args(&extra)
+            .output()
+            .unwrap();
+        assert_eq!(run.status.code(), Some(1), "{extra:?}");
+        assert!(
+            String::from_utf8_lossy(&run.stderr).contains("not supported by calib rig yet"),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+    }
+    let result = temp("norig-result.json");
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&input)
+            .arg("-q")
+            .arg("-o")
+            .arg(&result),
+    );
+    for command in ["export", "report"] {
+        let mut c = calib();
+        c.arg(command).arg(&result);
+        if command == "export" {
+            c.args(["--format", "opencv"]);
+        }
+        let run = c.arg("-o").arg(temp("norig-out")).output().unwrap();
+        assert_eq!(run.status.code(), Some(1), "{command}");
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(err.contains("rig"), "{command}: {err}");
+    }
+}

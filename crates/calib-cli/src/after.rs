@@ -1,0 +1,576 @@
+//! `calib export`, `calib undistort`, `calib rectify`, and what `calib single` / `calib stereo`
+//! share with them: `--export FORMAT=FILE` and `--intrinsics FILE` (crate `calib-export`,
+//! `docs/after-calibration.md`).
+
+use crate::run::check_not_input;
+use crate::{Failure, print_stdout, write_json};
+use calib_export::remap::{read_image, write_image};
+use calib_export::{
+    Calibrated, CameraCalibration, ExportOptions, Format, PixelMap, export, export_paths,
+    optimal_new_camera_matrix, read_calibration, remap_image, stereo_rectify,
+};
+use calib_single::CalibrationOptions;
+use camera_model::{AnyCamera, CameraModel};
+use clap::Args;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// One `--export FORMAT=FILE`.
+#[derive(Debug, Clone)]
+pub struct ExportTarget {
+    /// The format.
+    pub format: Format,
+    /// The file (for ROS stereo, the stem of the two files).
+    pub path: PathBuf,
+}
+
+/// Parses the `--export` values.
+pub fn export_targets(values: &[String]) -> Result<Vec<ExportTarget>, Failure> {
+    values
+        .iter()
+        .map(|v| {
+            let (format, path) = v.split_once('=').ok_or_else(|| {
+                Failure(format!(
+                    "--export {v}: expected FORMAT=FILE, e.g. opencv=camera.yaml"
+                ))
+            })?;
+            let format: Format = format
+                .parse()
+                .map_err(|e| Failure(format!("--export {v}: {e}")))?;
+            if path.is_empty() {
+                return Err(Failure(format!("--export {v}: the file name is empty")));
+            }
+            Ok(ExportTarget {
+                format,
+                path: PathBuf::from(path),
+            })
+        })
+        .collect()
+}
+
+/// Writes the exports of `calibrated` (default options), refusing any that would replace an
+/// input; prints the files written unless quiet.
+pub fn write_exports(
+    calibrated: &Calibrated,
+    targets: &[ExportTarget],
+    inputs: &[&str],
+    quiet: bool,
+) -> Result<(), Failure> {
+    for target in targets {
+        for path in export_paths(calibrated, target.format, &target.path) {
+            check_not_input(&path.to_string_lossy(), inputs)?;
+        }
+        let written = export(
+            calibrated,
+            target.format,
+            &target.path,
+            &ExportOptions::default(),
+        )
+        .map_err(|e| {
+            Failure(format!(
+                "--export {}={}: {e}",
+                target.format,
+                target.path.display()
+            ))
+        })?;
+        if !quiet {
+            for path in written {
+                print_stdout(&format!("wrote {} ({})\n", path.display(), target.format))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads the camera of a single-camera calibration file (`what` names the option).
+pub fn read_single_camera(path: &str, what: &str) -> Result<CameraCalibration, Failure> {
+    match read_calibration(Path::new(path)).map_err(|e| Failure(format!("{what}: {e}")))? {
+        Calibrated::Single(c) => Ok(c),
+        Calibrated::Stereo(_) => Err(Failure(format!(
+            "{what} {path}: holds a stereo rig; give a single camera's file (calib stereo takes rigs with --intrinsics, single cameras with --left-intrinsics / --right-intrinsics)"
+        ))),
+    }
+}
+
+/// `camera` as a camera of `model`: itself, or padded with zero coefficients when `model` extends
+/// its model (brown-conrady4 < brown-conrady5 < rational8 < thin-prism12); `None` otherwise.
+pub fn widen(camera: &AnyCamera, model: CameraModel) -> Option<AnyCamera> {
+    use CameraModel::*;
+    let rank = |m: CameraModel| match m {
+        BrownConrady4 => Some(0),
+        BrownConrady5 => Some(1),
+        Rational8 => Some(2),
+        ThinPrism12 => Some(3),
+        KannalaBrandt4 => None,
+    };
+    if camera.model == model {
+        return Some(camera.clone());
+    }
+    let (from, to) = (rank(camera.model)?, rank(model)?);
+    if from > to {
+        return None;
+    }
+    let mut d = camera.distortion.clone();
+    d.resize(model.num_distortion_params(), 0.0);
+    AnyCamera::new(model, camera.intrinsics, d).ok()
+}
+
+/// Starts `options` from the camera of a file (`--intrinsics`): its model (unless `--model` was
+/// given: then the file's camera must fit that model), intrinsics and distortion as the guess;
+/// with `fix`, all of them held.
+pub fn apply_camera_file(
+    options: &mut CalibrationOptions,
+    camera: &CameraCalibration,
+    explicit_model: bool,
+    fix: bool,
+    what: &str,
+) -> Result<(), Failure> {
+    let start = if explicit_model {
+        widen(&camera.camera, options.model).ok_or_else(|| {
+            Failure(format!(
+                "{what}: the file's camera is {}, which --model {} cannot start from (leave --model out to use the file's model)",
+                camera.camera.model, options.model
+            ))
+        })?
+    } else {
+        camera.camera.clone()
+    };
+    options.model = start.model;
+    options.intrinsic_guess = Some(start.intrinsics);
+    options.distortion_guess = Some(start.distortion.clone());
+    // Fixed coefficients from an earlier --fix refer to the old model's order.
+    options
+        .fixed_distortion
+        .retain(|&i| i < start.model.num_distortion_params());
+    if fix {
+        options.fix_focal_length = true;
+        options.fix_principal_point = true;
+        options.fixed_distortion = (0..start.model.num_distortion_params()).collect();
+    }
+    Ok(())
+}
+
+/// Refuses a camera file whose image size differs from the observations'.
+pub fn check_image_size(
+    camera: &CameraCalibration,
+    size: Option<calib_core::ImageSize>,
+    what: &str,
+) -> Result<(), Failure> {
+    let Some(size) = size else {
+        return Ok(());
+    };
+    if camera.image_size != size {
+        return Err(Failure(format!(
+            "{what}: the file's camera has images of {}x{} but the observations are {}x{}; intrinsics in pixels only apply to the same image size",
+            camera.image_size.width, camera.image_size.height, size.width, size.height
+        )));
+    }
+    Ok(())
+}
+
+/// Arguments of `calib export`.
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// A calibration: a result of calib single or calib stereo (JSON), or any exported file.
+    #[arg(value_name = "RESULT")]
+    pub input: String,
+    /// Format to write: opencv (FileStorage YAML), ros (camera_info YAML; a stereo rig writes
+    /// FILE-left.yaml and FILE-right.yaml), kalibr (camchain YAML).
+    #[arg(long, value_name = "FORMAT")]
+    pub format: String,
+    /// File to write.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// Free scaling of the rectification (stereo) and of ROS's projection matrix: 0 (only valid
+    /// pixels) to 1 (every source pixel), or -1 for OpenCV's default scaling (stereo).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        value_name = "A"
+    )]
+    pub alpha: f64,
+    /// Multiply translations by this (board units to the other tool's: 0.001 for a board in mm
+    /// when ROS or Kalibr expect metres).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub translation_scale: f64,
+    /// Do not print the files written.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// `--alpha` as the library's option: `-1` is OpenCV's default scaling.
+fn alpha_option(alpha: f64) -> Result<Option<f64>, Failure> {
+    if alpha == -1.0 {
+        Ok(None)
+    } else if (0.0..=1.0).contains(&alpha) {
+        Ok(Some(alpha))
+    } else {
+        Err(Failure(format!(
+            "--alpha: expected 0 to 1 (or -1 for OpenCV's default), got {alpha}"
+        )))
+    }
+}
+
+pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
+    let format: Format = args
+        .format
+        .parse()
+        .map_err(|e| Failure(format!("--format: {e}")))?;
+    let options = ExportOptions::new(alpha_option(args.alpha)?, args.translation_scale)
+        .map_err(|e| Failure(e.to_string()))?;
+    let calibrated = read_calibration(Path::new(&args.input))?;
+    for path in export_paths(&calibrated, format, &args.output) {
+        check_not_input(&path.to_string_lossy(), &[&args.input])?;
+    }
+    let written = export(&calibrated, format, &args.output, &options)
+        .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+    if !args.quiet {
+        for path in written {
+            print_stdout(&format!("wrote {} ({format})\n", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Arguments of `calib undistort`.
+#[derive(Args, Debug)]
+pub struct UndistortArgs {
+    /// The camera: a calib single result (JSON) or an exported file (OpenCV, ROS, Kalibr).
+    #[arg(value_name = "CAMERA")]
+    pub camera: String,
+    /// Images to undistort (JPEG or PNG), all of the calibrated size.
+    #[arg(required = true, value_name = "IMAGE")]
+    pub images: Vec<PathBuf>,
+    /// Output folder: each image keeps its file name (and format); the new camera matrix goes
+    /// to DIR/undistortion.json.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Free scaling: 0 keeps only valid pixels, 1 keeps every source pixel (OpenCV's
+    /// getOptimalNewCameraMatrix).
+    #[arg(long, default_value_t = 0.0, value_name = "A")]
+    pub alpha: f64,
+    /// Threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Do not print the summary.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Output paths `dir/<file name>` of `images`, refusing duplicates and inputs.
+fn output_paths(images: &[&PathBuf], dir: &Path, inputs: &[&str]) -> Result<Vec<PathBuf>, Failure> {
+    let mut out: Vec<PathBuf> = Vec::with_capacity(images.len());
+    for image in images {
+        let name = image
+            .file_name()
+            .ok_or_else(|| Failure(format!("{}: not a file name", image.display())))?;
+        let path = dir.join(name);
+        if out.contains(&path) {
+            return Err(Failure(format!(
+                "two inputs are named {}: outputs keep the input names, so they would overwrite each other",
+                name.to_string_lossy()
+            )));
+        }
+        check_not_input(&path.to_string_lossy(), inputs).map_err(|_| {
+            Failure(format!(
+                "{}: writing there would replace the input image; choose another output folder",
+                path.display()
+            ))
+        })?;
+        out.push(path);
+    }
+    Ok(out)
+}
+
+/// Remaps `images` with `map` into `outputs` in parallel; every image must have `map`'s size.
+fn remap_all(images: &[&PathBuf], outputs: &[PathBuf], map: &PixelMap) -> Result<(), Failure> {
+    images
+        .par_iter()
+        .zip(outputs)
+        .map(|(input, output)| {
+            let image = read_image(input)?;
+            if (image.width(), image.height()) != (map.size.width, map.size.height) {
+                return Err(calib_export::ExportError::Image {
+                    path: input.display().to_string(),
+                    reason: format!(
+                        "{}x{} pixels, but the calibration is for {}x{}",
+                        image.width(),
+                        image.height(),
+                        map.size.width,
+                        map.size.height
+                    ),
+                });
+            }
+            write_image(&remap_image(&image, map), output)
+        })
+        .collect::<Result<Vec<()>, _>>()
+        .map_err(|e| Failure(e.to_string()))?;
+    Ok(())
+}
+
+fn with_threads<T: Send>(
+    threads: usize,
+    f: impl FnOnce() -> Result<T, Failure> + Send,
+) -> Result<T, Failure> {
+    if threads == 0 {
+        return f();
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Failure(format!("--threads: {e}")))?
+        .install(f)
+}
+
+fn rows<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> serde_json::Value {
+    serde_json::json!(
+        (0..R)
+            .map(|i| (0..C).map(|k| m[(i, k)]).collect::<Vec<f64>>())
+            .collect::<Vec<_>>()
+    )
+}
+
+pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
+    let camera = read_single_camera(&args.camera, "CAMERA")?;
+    let (k_new, roi) = optimal_new_camera_matrix(&camera.camera, camera.image_size, args.alpha)
+        .map_err(|e| Failure(format!("{}: {e}", args.camera)))?;
+    std::fs::create_dir_all(&args.output)
+        .map_err(|e| Failure(format!("-o {}: {e}", args.output.display())))?;
+    let images: Vec<&PathBuf> = args.images.iter().collect();
+    let mut inputs: Vec<String> = args
+        .images
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    inputs.push(args.camera.clone());
+    let input_refs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let outputs = output_paths(&images, &args.output, &input_refs)?;
+    let sidecar = args.output.join("undistortion.json");
+    check_not_input(&sidecar.to_string_lossy(), &input_refs)?;
+    let start = std::time::Instant::now();
+    with_threads(args.threads, || {
+        let map = PixelMap::undistort(&camera, &k_new).map_err(|e| Failure(e.to_string()))?;
+        remap_all(&images, &outputs, &map)
+    })?;
+    let json = serde_json::json!({
+        "format": "calib-undistortion/1",
+        "source": args.camera,
+        "model": camera.camera.model,
+        "image_size": camera.image_size,
+        "alpha": args.alpha,
+        "camera_matrix": rows(&camera.matrix()),
+        "dist_coeffs": camera.camera.distortion,
+        "new_camera_matrix": rows(&k_new),
+        "valid_roi": roi,
+        "images": args.images.iter().map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned())).collect::<Vec<_>>(),
+    });
+    write_json(&sidecar.to_string_lossy(), &json)?;
+    if !args.quiet {
+        print_stdout(&format!(
+            "undistorted {} images into {} in {:.2} s (alpha {}, new fx fy cx cy = {:.3} {:.3} {:.3} {:.3}, valid region {:?})\n",
+            images.len(),
+            args.output.display(),
+            start.elapsed().as_secs_f64(),
+            args.alpha,
+            k_new[(0, 0)],
+            k_new[(1, 1)],
+            k_new[(0, 2)],
+            k_new[(1, 2)],
+            roi
+        ))?;
+    }
+    Ok(())
+}
+
+/// Arguments of `calib rectify`.
+#[derive(Args, Debug)]
+pub struct RectifyArgs {
+    /// The stereo calibration: a calib stereo result (JSON), an OpenCV stereo YAML or a Kalibr
+    /// camchain of two cameras.
+    #[arg(value_name = "STEREO_RESULT")]
+    pub input: String,
+    /// Free scaling: 0 keeps only valid pixels in both rectified images, 1 keeps every source
+    /// pixel, -1 is OpenCV's default scaling.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        value_name = "A"
+    )]
+    pub alpha: f64,
+    /// Write R1, R2, P1, P2, Q (and the valid regions) as JSON to this file ("-" for stdout).
+    #[arg(short, long, value_name = "RECT.json")]
+    pub output: Option<String>,
+    /// Left images to rectify (with --right and --out).
+    #[arg(long, num_args = 1.., value_name = "LEFT")]
+    pub images: Vec<PathBuf>,
+    /// Right images to rectify.
+    #[arg(long, num_args = 1.., value_name = "RIGHT")]
+    pub right: Vec<PathBuf>,
+    /// Folder for the rectified images (each keeps its input file name).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Do not print the summary.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
+    let rig = match read_calibration(Path::new(&args.input))? {
+        Calibrated::Stereo(s) => s,
+        Calibrated::Single(_) => {
+            return Err(Failure(format!(
+                "{}: a single camera; rectification needs a stereo rig",
+                args.input
+            )));
+        }
+    };
+    let has_images = !args.images.is_empty() || !args.right.is_empty();
+    if has_images && args.out.is_none() {
+        return Err(Failure(
+            "--images/--right: give --out DIR for the rectified images".into(),
+        ));
+    }
+    if args.out.is_some() && !has_images {
+        return Err(Failure(
+            "--out: give the images to rectify with --images LEFT... --right RIGHT...".into(),
+        ));
+    }
+    if args.output.is_none() && !has_images {
+        return Err(Failure(
+            "nothing to do: give -o RECT.json and/or --images ... --right ... --out DIR".into(),
+        ));
+    }
+    let rect = stereo_rectify(&rig, alpha_option(args.alpha)?)
+        .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+    if let Some(path) = &args.output {
+        check_not_input(path, &[&args.input])?;
+        write_json(path, &rect.to_json())?;
+    }
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| Failure(format!("--out {}: {e}", dir.display())))?;
+        let mut inputs: Vec<String> = args
+            .images
+            .iter()
+            .chain(&args.right)
+            .map(|p| p.display().to_string())
+            .collect();
+        inputs.push(args.input.clone());
+        let input_refs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+        let all: Vec<&PathBuf> = args.images.iter().chain(&args.right).collect();
+        let outputs = output_paths(&all, dir, &input_refs)?;
+        let (left_out, right_out) = outputs.split_at(args.images.len());
+        let left: Vec<&PathBuf> = args.images.iter().collect();
+        let right: Vec<&PathBuf> = args.right.iter().collect();
+        let k = rect.camera_matrix();
+        with_threads(args.threads, || {
+            let left_map = PixelMap::new(&rig.left, &rect.r1, &k, rect.image_size)
+                .map_err(|e| Failure(e.to_string()))?;
+            remap_all(&left, left_out, &left_map)?;
+            let right_map = PixelMap::new(&rig.right, &rect.r2, &k, rect.image_size)
+                .map_err(|e| Failure(e.to_string()))?;
+            remap_all(&right, right_out, &right_map)
+        })?;
+    }
+    if !args.quiet {
+        let t = (rect.p2[(0, 3)].abs() + rect.p2[(1, 3)].abs()) / rect.p2[(0, 0)];
+        print_stdout(&format!(
+            "rectified: f = {:.3} px, principal point ({:.3}, {:.3}), baseline {:.4} (board units), valid regions {:?} {:?}{}\n",
+            rect.p1[(0, 0)],
+            rect.p1[(0, 2)],
+            rect.p1[(1, 2)],
+            t,
+            rect.roi1,
+            rect.roi2,
+            match &args.out {
+                Some(d) => format!(
+                    "; {} + {} images written to {}",
+                    args.images.len(),
+                    args.right.len(),
+                    d.display()
+                ),
+                None => String::new(),
+            }
+        ))?;
+    }
+    Ok(())
+}
+
+/// Writes a report, printing where unless quiet.
+pub fn write_report_to(
+    input: &calib_export::ReportInput,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let written = calib_export::write_report(input, dir)
+        .map_err(|e| Failure(format!("--report {}: {e}", dir.display())))?;
+    if !quiet {
+        print_stdout(&format!(
+            "report: {} ({} files)\n",
+            dir.join("index.html").display(),
+            written.len()
+        ))?;
+    }
+    Ok(())
+}
+
+/// Arguments of `calib report`.
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    /// A result of calib single or calib stereo (JSON).
+    #[arg(value_name = "RESULT.json")]
+    pub input: String,
+    /// The observation file the result was calibrated from (from the user or calib detect):
+    /// needed for the residual, coverage and uncertainty plots.
+    #[arg(long, value_name = "OBS.json")]
+    pub observations: Option<String>,
+    /// Folder to write index.html and the SVG plots into.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Do not print where the report went.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
+    use calib_core::JsonFile;
+    let (text, name) = calib_core::read_text(
+        Path::new(&args.input),
+        calib_core::io::DEFAULT_MAX_INPUT_BYTES,
+    )?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Failure(format!("{name}: {e}")))?;
+    let format = value
+        .get("format")
+        .and_then(|f| f.as_str())
+        .unwrap_or("")
+        .to_string();
+    let input = if format.starts_with("calib-single-result/") {
+        let result = calib_single::Calibration::from_json(value)
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        let observations = match &args.observations {
+            Some(path) => Some(calib_single::Observations::read(path)?),
+            None => None,
+        };
+        calib_export::ReportInput::single(&result, observations.as_ref())
+    } else if format.starts_with("calib-stereo-result/") {
+        let result = calib_stereo::StereoCalibration::from_json(value)
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        let observations = match &args.observations {
+            Some(path) => Some(calib_stereo::StereoObservations::read(path)?),
+            None => None,
+        };
+        calib_export::ReportInput::stereo(&result, observations.as_ref())
+    } else {
+        return Err(Failure(format!(
+            "{name}: not a calib single or calib stereo result (format '{format}')"
+        )));
+    }
+    .map_err(|e| Failure(format!("{name}: {e}")))?;
+    write_report_to(&input, &args.output, args.quiet)
+}

@@ -1,0 +1,211 @@
+//! Writing a calibration in another tool's format, and reading any supported file back.
+
+use crate::calibration::{CameraCalibration, StereoRig};
+use crate::error::ExportError;
+use crate::yaml::{self, Doc};
+use crate::{Calibrated, kalibr, opencv, ros};
+use std::path::{Path, PathBuf};
+
+/// A file format of another tool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// OpenCV FileStorage YAML ([`crate::opencv`]).
+    OpenCv,
+    /// ROS camera_info YAML, one file per camera ([`crate::ros`]).
+    Ros,
+    /// Kalibr camchain YAML ([`crate::kalibr`]).
+    Kalibr,
+}
+
+impl Format {
+    /// Every format.
+    pub const ALL: [Format; 3] = [Format::OpenCv, Format::Ros, Format::Kalibr];
+
+    /// The name on the command line: `opencv`, `ros`, `kalibr`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::OpenCv => "opencv",
+            Format::Ros => "ros",
+            Format::Kalibr => "kalibr",
+        }
+    }
+}
+
+impl std::fmt::Display for Format {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Format {
+    type Err = ExportError;
+    fn from_str(s: &str) -> Result<Self, ExportError> {
+        Format::ALL
+            .into_iter()
+            .find(|f| f.name() == s.trim().to_ascii_lowercase())
+            .ok_or_else(|| {
+                ExportError::invalid(
+                    "export format",
+                    format!("unknown format '{s}' (known: opencv, ros, kalibr)"),
+                )
+            })
+    }
+}
+
+/// Settings of an export.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct ExportOptions {
+    /// Free scaling of the rectification (stereo, OpenCV and ROS) and of a single camera's ROS
+    /// projection matrix: `0..=1`; `None` is OpenCV's default scaling for stereo and 0 for a
+    /// single camera. Default `Some(0.0)` (only valid pixels, ROS's default).
+    pub alpha: Option<f64>,
+    /// Factor applied to translations on export (the rig's `T`, `P2`'s translation, `Q`):
+    /// board units to the other tool's unit, e.g. 0.001 for a board in millimetres when ROS or
+    /// Kalibr expect metres. Default 1.
+    pub translation_scale: f64,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        Self {
+            alpha: Some(0.0),
+            translation_scale: 1.0,
+        }
+    }
+}
+
+impl ExportOptions {
+    /// Options with this alpha and translation scale (checked).
+    pub fn new(alpha: Option<f64>, translation_scale: f64) -> Result<Self, ExportError> {
+        if let Some(a) = alpha {
+            crate::undistort::check_alpha(a)?;
+        }
+        if !(translation_scale.is_finite() && translation_scale > 0.0) {
+            return Err(ExportError::invalid(
+                "translation scale",
+                format!("expected a positive number, got {translation_scale}"),
+            ));
+        }
+        Ok(Self {
+            alpha,
+            translation_scale,
+        })
+    }
+}
+
+/// The files of an export to `path`: `path` itself, except ROS stereo, which writes one file
+/// per camera, `STEM-left.EXT` and `STEM-right.EXT` (`out.yaml` gives `out-left.yaml` and
+/// `out-right.yaml`).
+pub fn export_paths(calibration: &Calibrated, format: Format, path: &Path) -> Vec<PathBuf> {
+    match (format, calibration) {
+        (Format::Ros, Calibrated::Stereo(_)) => {
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let ext = path
+                .extension()
+                .map(|e| format!(".{}", e.to_string_lossy()))
+                .unwrap_or_default();
+            ["left", "right"]
+                .iter()
+                .map(|side| path.with_file_name(format!("{stem}-{side}{ext}")))
+                .collect()
+        }
+        _ => vec![path.to_path_buf()],
+    }
+}
+
+/// The texts of an export, one per file of [`export_paths`].
+pub fn export_texts(
+    calibration: &Calibrated,
+    format: Format,
+    options: &ExportOptions,
+) -> Result<Vec<String>, ExportError> {
+    match format {
+        Format::OpenCv => Ok(vec![opencv::write(calibration, options)?]),
+        Format::Ros => ros::write(calibration, options),
+        Format::Kalibr => Ok(vec![kalibr::write(calibration, options)?]),
+    }
+}
+
+/// Writes `calibration` in `format` to `path` (see [`export_paths`]), each file atomically: a
+/// failure leaves any previous file in place. Returns the files written.
+pub fn export(
+    calibration: &Calibrated,
+    format: Format,
+    path: &Path,
+    options: &ExportOptions,
+) -> Result<Vec<PathBuf>, ExportError> {
+    let texts = export_texts(calibration, format, options)?;
+    let paths = export_paths(calibration, format, path);
+    for (text, path) in texts.iter().zip(&paths) {
+        calib_core::write_atomically(path, text.as_bytes()).map_err(|source| {
+            ExportError::Write {
+                path: path.display().to_string(),
+                source,
+            }
+        })?;
+    }
+    Ok(paths)
+}
+
+/// Parses a calibration from text: a `calib single` or `calib stereo` result (JSON), an OpenCV
+/// FileStorage YAML, a ROS camera_info YAML or a Kalibr camchain. `path` names the source in
+/// errors.
+pub fn parse_calibration(text: &str, path: &str) -> Result<Calibrated, ExportError> {
+    if text.trim_start().starts_with('{') {
+        let value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| ExportError::Syntax {
+                path: path.to_string(),
+                reason: e.to_string(),
+            })?;
+        let format = value
+            .get("format")
+            .and_then(|f| f.as_str())
+            .unwrap_or("")
+            .to_string();
+        let content = |reason: String| ExportError::Syntax {
+            path: path.to_string(),
+            reason,
+        };
+        let calibrated = if format.starts_with("calib-single-result/") {
+            let c = calib_single::Calibration::from_json(value).map_err(content)?;
+            Calibrated::Single(CameraCalibration::from(&c))
+        } else if format.starts_with("calib-stereo-result/") {
+            let s = calib_stereo::StereoCalibration::from_json(value).map_err(content)?;
+            Calibrated::Stereo(StereoRig::from(&s))
+        } else if format.starts_with("calib-rig-result/") {
+            return Err(ExportError::Unsupported(format!(
+                "{path}: a calib rig result; rig results cannot be exported or read here yet (calib single and calib stereo results can)"
+            )));
+        } else {
+            return Err(ExportError::UnknownFormat {
+                path: path.to_string(),
+            });
+        };
+        calibrated.check().map_err(|e| content(e.to_string()))?;
+        return Ok(calibrated);
+    }
+    let value = yaml::parse(text, path)?;
+    let doc = Doc { path };
+    if kalibr::recognizes(&value) {
+        kalibr::read(&doc, &value)
+    } else if ros::recognizes(&value) {
+        ros::read(&doc, &value).map(Calibrated::Single)
+    } else if opencv::recognizes(text, &value) {
+        opencv::read(&doc, &value)
+    } else {
+        Err(ExportError::UnknownFormat {
+            path: path.to_string(),
+        })
+    }
+}
+
+/// Reads a calibration file of any supported kind ([`parse_calibration`]), at most
+/// [`calib_core::io::DEFAULT_MAX_INPUT_BYTES`].
+pub fn read_calibration(path: &Path) -> Result<Calibrated, ExportError> {
+    let (text, name) = calib_core::read_text(path, calib_core::io::DEFAULT_MAX_INPUT_BYTES)?;
+    parse_calibration(&text, &name)
+}

@@ -1,0 +1,233 @@
+//! Kalibr camchain YAML (`camchain.yaml`, what Kalibr writes and its tools and VIO systems read):
+//!
+//! ```text
+//! cam0:
+//!   cam_overlaps: [1]
+//!   camera_model: pinhole
+//!   distortion_coeffs: [k1, k2, r1, r2]
+//!   distortion_model: radtan
+//!   intrinsics: [fu, fv, pu, pv]
+//!   resolution: [640, 360]
+//!   rostopic: /cam0/image_raw
+//! cam1:
+//!   T_cn_cnm1:
+//!   - [r11, r12, r13, t1]
+//!   - [r21, r22, r23, t2]
+//!   - [r31, r32, r33, t3]
+//!   - [0.0, 0.0, 0.0, 1.0]
+//!   ...
+//! ```
+//!
+//! `T_cn_cnm1` maps camera `n-1`'s frame to camera `n`'s: for a stereo rig it is `[R | T]`
+//! (`X_right = R X_left + T`), `T` in board units times the export's translation scale (Kalibr
+//! uses metres). Models: `brown-conrady4` is `pinhole` with `radtan`, `kannala-brandt4` is
+//! `pinhole` with `equidistant`, `brown-conrady5` only with `k3 = 0` (radtan has no k3);
+//! `rational8` and `thin-prism12` have no Kalibr equivalent and give
+//! [`ExportError::UnsupportedModel`]. Kalibr's pixel convention is OpenCV's.
+
+use crate::calibration::{CameraCalibration, StereoRig};
+use crate::error::ExportError;
+use crate::yaml::{self, Doc};
+use crate::{Calibrated, ExportOptions};
+use calib_core::ImageSize;
+use camera_model::{AnyCamera, CameraModel, Intrinsics};
+use nalgebra::{Matrix3, Vector3};
+use serde_norway::Value;
+use std::fmt::Write;
+
+fn kalibr_model(camera: &AnyCamera) -> Result<(&'static str, Vec<f64>), ExportError> {
+    let d = &camera.distortion;
+    let unsupported = |detail: &str| ExportError::UnsupportedModel {
+        format: "kalibr",
+        model: camera.model,
+        detail: detail.to_string(),
+    };
+    match camera.model {
+        CameraModel::BrownConrady4 => Ok(("radtan", d.clone())),
+        CameraModel::BrownConrady5 if d[4] == 0.0 => Ok(("radtan", d[..4].to_vec())),
+        CameraModel::BrownConrady5 => Err(unsupported(&format!(
+            " with k3 = {} (Kalibr's radtan has k1 k2 r1 r2 only; calibrate with --model brown-conrady4)",
+            d[4]
+        ))),
+        CameraModel::KannalaBrandt4 => Ok(("equidistant", d.clone())),
+        CameraModel::Rational8 | CameraModel::ThinPrism12 => Err(unsupported(
+            " (Kalibr knows radtan and equidistant distortion; calibrate with --model brown-conrady4 or kannala-brandt4)",
+        )),
+    }
+}
+
+fn camera_block(
+    out: &mut String,
+    index: usize,
+    camera: &CameraCalibration,
+    overlaps: &[usize],
+    transform: Option<(&Matrix3<f64>, &Vector3<f64>)>,
+) -> Result<(), ExportError> {
+    camera.check()?;
+    let (model, d) = kalibr_model(&camera.camera)?;
+    let k = camera.camera.intrinsics;
+    let _ = writeln!(out, "cam{index}:");
+    if let Some((r, t)) = transform {
+        yaml::check_finite("T_cn_cnm1", r.as_slice())?;
+        yaml::check_finite("T_cn_cnm1", t.as_slice())?;
+        let _ = writeln!(out, "  T_cn_cnm1:");
+        for i in 0..3 {
+            let _ = writeln!(
+                out,
+                "  - {}",
+                yaml::list(&[r[(i, 0)], r[(i, 1)], r[(i, 2)], t[i]])
+            );
+        }
+        let _ = writeln!(out, "  - [0.0, 0.0, 0.0, 1.0]");
+    }
+    let overlaps: Vec<String> = overlaps.iter().map(usize::to_string).collect();
+    let _ = writeln!(out, "  cam_overlaps: [{}]", overlaps.join(", "));
+    let _ = writeln!(out, "  camera_model: pinhole");
+    let _ = writeln!(out, "  distortion_coeffs: {}", yaml::list(&d));
+    let _ = writeln!(out, "  distortion_model: {model}");
+    let intrinsics = [k.fx, k.fy, k.cx, k.cy];
+    yaml::check_finite("intrinsics", &intrinsics)?;
+    let _ = writeln!(out, "  intrinsics: {}", yaml::list(&intrinsics));
+    let _ = writeln!(
+        out,
+        "  resolution: [{}, {}]",
+        camera.image_size.width, camera.image_size.height
+    );
+    let _ = writeln!(out, "  rostopic: /cam{index}/image_raw");
+    Ok(())
+}
+
+/// The camchain text of `calibration` (one camera: `cam0` only).
+pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String, ExportError> {
+    calibration.check()?;
+    let mut out = String::new();
+    match calibration {
+        Calibrated::Single(c) => camera_block(&mut out, 0, c, &[], None)?,
+        Calibrated::Stereo(s) => {
+            let t = s.translation * options.translation_scale;
+            camera_block(&mut out, 0, &s.left, &[1], None)?;
+            camera_block(&mut out, 1, &s.right, &[0], Some((&s.rotation, &t)))?;
+        }
+    }
+    Ok(out)
+}
+
+/// True if a parsed document looks like a camchain.
+pub(crate) fn recognizes(v: &Value) -> bool {
+    v.get("cam0").is_some_and(|c| c.get("intrinsics").is_some())
+}
+
+fn camera(doc: &Doc, v: &Value, key: &str) -> Result<CameraCalibration, ExportError> {
+    let cam = doc.get(v, "", key)?;
+    let field = |k: &str| format!("{key}.{k}");
+    let projection = doc.string(doc.get(cam, key, "camera_model")?, &field("camera_model"))?;
+    if projection != "pinhole" {
+        return Err(ExportError::field(
+            doc.path,
+            &field("camera_model"),
+            format!(
+                "'{projection}' is not supported (only pinhole, with radtan or equidistant distortion)"
+            ),
+        ));
+    }
+    let k = doc.numbers(
+        doc.get(cam, key, "intrinsics")?,
+        &field("intrinsics"),
+        Some(4),
+    )?;
+    let d = doc.numbers(
+        doc.get(cam, key, "distortion_coeffs")?,
+        &field("distortion_coeffs"),
+        None,
+    )?;
+    let name = doc.string(
+        doc.get(cam, key, "distortion_model")?,
+        &field("distortion_model"),
+    )?;
+    let model = match (name, d.len()) {
+        ("radtan", 4) => CameraModel::BrownConrady4,
+        ("equidistant", 4) => CameraModel::KannalaBrandt4,
+        (m, n) => {
+            return Err(ExportError::field(
+                doc.path,
+                &field("distortion_model"),
+                format!(
+                    "'{m}' with {n} coefficients is not supported (radtan or equidistant, 4 coefficients)"
+                ),
+            ));
+        }
+    };
+    let res = doc.numbers(
+        doc.get(cam, key, "resolution")?,
+        &field("resolution"),
+        Some(2),
+    )?;
+    if res
+        .iter()
+        .any(|r| *r < 1.0 || r.fract() != 0.0 || *r > u32::MAX as f64)
+    {
+        return Err(ExportError::field(
+            doc.path,
+            &field("resolution"),
+            format!("expected two positive integers, got {res:?}"),
+        ));
+    }
+    let camera = AnyCamera::new(model, Intrinsics::new(k[0], k[1], k[2], k[3]), d)
+        .map_err(|e| ExportError::field(doc.path, &field("distortion_coeffs"), e.to_string()))?;
+    let c = CameraCalibration {
+        name: key.to_string(),
+        camera,
+        image_size: ImageSize::new(res[0] as u32, res[1] as u32),
+    };
+    c.check()
+        .map_err(|e| ExportError::field(doc.path, &field("intrinsics"), e.to_string()))?;
+    Ok(c)
+}
+
+/// Reads a camchain: `cam0` alone is a single camera, `cam0` and `cam1` a stereo rig (further
+/// cameras are refused until rigs are supported).
+pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
+    let left = camera(doc, v, "cam0")?;
+    if v.get("cam1").is_none() {
+        return Ok(Calibrated::Single(left));
+    }
+    if v.get("cam2").is_some() {
+        return Err(ExportError::Unsupported(format!(
+            "{}: camchains of more than two cameras are not supported yet",
+            doc.path
+        )));
+    }
+    let right = camera(doc, v, "cam1")?;
+    let cam1 = doc.get(v, "", "cam1")?;
+    let rows = cam1
+        .get("T_cn_cnm1")
+        .and_then(Value::as_sequence)
+        .ok_or_else(|| {
+            ExportError::field(
+                doc.path,
+                "cam1.T_cn_cnm1",
+                "missing or not a list of 4 rows",
+            )
+        })?;
+    if rows.len() != 4 {
+        return Err(ExportError::field(
+            doc.path,
+            "cam1.T_cn_cnm1",
+            format!("expected 4 rows, got {}", rows.len()),
+        ));
+    }
+    let mut m = [[0.0; 4]; 4];
+    for (i, row) in rows.iter().enumerate() {
+        let r = doc.numbers(row, &format!("cam1.T_cn_cnm1[{i}]"), Some(4))?;
+        m[i].copy_from_slice(&r);
+    }
+    let rig = StereoRig {
+        left,
+        right,
+        rotation: Matrix3::from_fn(|i, k| m[i][k]),
+        translation: Vector3::new(m[0][3], m[1][3], m[2][3]),
+    };
+    rig.check()
+        .map_err(|e| ExportError::field(doc.path, "cam1.T_cn_cnm1", e.to_string()))?;
+    Ok(Calibrated::Stereo(rig))
+}

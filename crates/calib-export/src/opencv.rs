@@ -1,0 +1,240 @@
+//! OpenCV FileStorage YAML: what `cv2.FileStorage(path, cv2.FILE_STORAGE_READ)` reads.
+//!
+//! One camera:
+//!
+//! ```text
+//! %YAML:1.0
+//! ---
+//! image_width: 640
+//! image_height: 360
+//! distortion_model: "brown-conrady4"
+//! camera_matrix: !!opencv-matrix
+//!    rows: 3
+//!    cols: 3
+//!    dt: d
+//!    data: [ fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0 ]
+//! distortion_coefficients: !!opencv-matrix
+//!    rows: 1
+//!    cols: 4
+//!    dt: d
+//!    data: [ k1, k2, p1, p2 ]
+//! ```
+//!
+//! `distortion_coefficients` holds the model's coefficients in OpenCV's order (4, 5, 8 or 12 for
+//! the pinhole models, ready for `cv2.undistort`; the 4 `cv2.fisheye` coefficients for
+//! `kannala-brandt4`). `distortion_model` (our model name; OpenCV ignores keys it is not asked
+//! for) tells a reader which model 4 coefficients mean; without it they are read as
+//! `brown-conrady4`.
+//!
+//! A stereo rig uses the names of OpenCV's `stereo_calib` sample (`M1`, `D1`, `M2`, `D2`, `R`,
+//! `T`) plus `E`, `F` and the rectification `R1`, `R2`, `P1`, `P2`, `Q`
+//! ([`crate::rectify::stereo_rectify`] with the export's `alpha`), and `distortion_model_1`,
+//! `distortion_model_2`.
+
+use crate::calibration::{CameraCalibration, StereoRig, intrinsics_of};
+use crate::error::ExportError;
+use crate::rectify::stereo_rectify;
+use crate::yaml::{self, Doc};
+use crate::{Calibrated, ExportOptions};
+use calib_core::ImageSize;
+use camera_model::{AnyCamera, CameraModel};
+use nalgebra::{Matrix3, Vector3};
+use serde_norway::Value;
+use std::fmt::Write;
+
+const HEADER: &str = "%YAML:1.0\n---\n";
+
+/// Appends `name: !!opencv-matrix` with `rows x cols` row-major `data`.
+fn matrix(
+    out: &mut String,
+    name: &str,
+    rows: usize,
+    cols: usize,
+    data: &[f64],
+) -> Result<(), ExportError> {
+    yaml::check_finite(name, data)?;
+    let items: Vec<String> = data.iter().map(|v| yaml::float(*v)).collect();
+    let _ = writeln!(
+        out,
+        "{name}: !!opencv-matrix\n   rows: {rows}\n   cols: {cols}\n   dt: d\n   data: [ {} ]",
+        items.join(", ")
+    );
+    Ok(())
+}
+
+fn row_major<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> Vec<f64> {
+    (0..R)
+        .flat_map(|i| (0..C).map(move |k| m[(i, k)]))
+        .collect()
+}
+
+/// The OpenCV YAML text of `calibration`.
+pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String, ExportError> {
+    calibration.check()?;
+    let mut out = String::from(HEADER);
+    match calibration {
+        Calibrated::Single(c) => {
+            let _ = writeln!(out, "image_width: {}", c.image_size.width);
+            let _ = writeln!(out, "image_height: {}", c.image_size.height);
+            let _ = writeln!(out, "distortion_model: \"{}\"", c.camera.model);
+            matrix(&mut out, "camera_matrix", 3, 3, &row_major(&c.matrix()))?;
+            let d = &c.camera.distortion;
+            matrix(&mut out, "distortion_coefficients", 1, d.len(), d)?;
+        }
+        Calibrated::Stereo(s) => {
+            let rect = stereo_rectify(s, options.alpha)?;
+            let scale = options.translation_scale;
+            let scaled = scaled_rig(s, scale);
+            let _ = writeln!(out, "image_width: {}", s.left.image_size.width);
+            let _ = writeln!(out, "image_height: {}", s.left.image_size.height);
+            if s.right.image_size != s.left.image_size {
+                let _ = writeln!(out, "image_width_2: {}", s.right.image_size.width);
+                let _ = writeln!(out, "image_height_2: {}", s.right.image_size.height);
+            }
+            let _ = writeln!(out, "distortion_model_1: \"{}\"", s.left.camera.model);
+            let _ = writeln!(out, "distortion_model_2: \"{}\"", s.right.camera.model);
+            matrix(&mut out, "M1", 3, 3, &row_major(&s.left.matrix()))?;
+            let d1 = &s.left.camera.distortion;
+            matrix(&mut out, "D1", 1, d1.len(), d1)?;
+            matrix(&mut out, "M2", 3, 3, &row_major(&s.right.matrix()))?;
+            let d2 = &s.right.camera.distortion;
+            matrix(&mut out, "D2", 1, d2.len(), d2)?;
+            matrix(&mut out, "R", 3, 3, &row_major(&s.rotation))?;
+            matrix(&mut out, "T", 3, 1, scaled.translation.as_slice())?;
+            matrix(&mut out, "E", 3, 3, &row_major(&scaled.essential()))?;
+            matrix(&mut out, "F", 3, 3, &row_major(&s.fundamental()))?;
+            let mut p2 = rect.p2;
+            p2[(0, 3)] *= scale;
+            p2[(1, 3)] *= scale;
+            let mut q = rect.q;
+            q[(3, 2)] /= scale;
+            q[(3, 3)] /= scale;
+            matrix(&mut out, "R1", 3, 3, &row_major(&rect.r1))?;
+            matrix(&mut out, "R2", 3, 3, &row_major(&rect.r2))?;
+            matrix(&mut out, "P1", 3, 4, &row_major(&rect.p1))?;
+            matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
+            matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
+        }
+    }
+    Ok(out)
+}
+
+/// The rig with its translation multiplied by `scale` (unit conversion for other tools).
+pub(crate) fn scaled_rig(s: &StereoRig, scale: f64) -> StereoRig {
+    let mut r = s.clone();
+    r.translation *= scale;
+    r
+}
+
+/// True if a parsed document looks like an OpenCV calibration file.
+pub(crate) fn recognizes(text: &str, v: &Value) -> bool {
+    let tagged = text.contains("!!opencv-matrix");
+    (yaml::has_opencv_directive(text) || tagged)
+        && (v.get("camera_matrix").is_some() || v.get("M1").is_some())
+}
+
+/// The model of `count` coefficients named `name` (if any) in a file.
+pub(crate) fn model_of(
+    doc: &Doc,
+    name: Option<&Value>,
+    key: &str,
+    count: usize,
+) -> Result<CameraModel, ExportError> {
+    if let Some(name) = name {
+        let name = doc.string(name, key)?;
+        return name
+            .parse::<CameraModel>()
+            .map_err(|e| ExportError::field(doc.path, key, e.to_string()));
+    }
+    match count {
+        4 => Ok(CameraModel::BrownConrady4),
+        5 => Ok(CameraModel::BrownConrady5),
+        8 => Ok(CameraModel::Rational8),
+        12 => Ok(CameraModel::ThinPrism12),
+        n => Err(ExportError::field(
+            doc.path,
+            key,
+            format!(
+                "{n} distortion coefficients match no supported model (4, 5, 8 or 12; the tilted 14-coefficient model is not supported)"
+            ),
+        )),
+    }
+}
+
+fn camera(
+    doc: &Doc,
+    v: &Value,
+    name: &str,
+    k_key: &str,
+    d_key: &str,
+    model_key: &str,
+    size: ImageSize,
+) -> Result<CameraCalibration, ExportError> {
+    let (_, _, k) = doc.matrix(doc.get(v, "", k_key)?, k_key, Some((3, 3)))?;
+    let (rows, cols, d) = doc.matrix(doc.get(v, "", d_key)?, d_key, None)?;
+    if rows != 1 && cols != 1 {
+        return Err(ExportError::field(
+            doc.path,
+            d_key,
+            format!("expected a vector, got {rows}x{cols}"),
+        ));
+    }
+    let model = model_of(doc, v.get(model_key), model_key, d.len())?;
+    let k = Matrix3::from_row_slice(&k);
+    let camera = AnyCamera::new(model, intrinsics_of(&k), d)
+        .map_err(|e| ExportError::field(doc.path, d_key, e.to_string()))?;
+    let c = CameraCalibration {
+        name: name.into(),
+        camera,
+        image_size: size,
+    };
+    c.check()
+        .map_err(|e| ExportError::field(doc.path, k_key, e.to_string()))?;
+    Ok(c)
+}
+
+/// Reads an OpenCV file written by [`write`] (or by OpenCV with these keys).
+pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
+    let width = doc.size(doc.get(v, "", "image_width")?, "image_width")?;
+    let height = doc.size(doc.get(v, "", "image_height")?, "image_height")?;
+    let size = ImageSize::new(width, height);
+    if v.get("M1").is_some() {
+        let size2 = match (v.get("image_width_2"), v.get("image_height_2")) {
+            (Some(w), Some(h)) => ImageSize::new(
+                doc.size(w, "image_width_2")?,
+                doc.size(h, "image_height_2")?,
+            ),
+            _ => size,
+        };
+        let left = camera(doc, v, "left", "M1", "D1", "distortion_model_1", size)?;
+        let right = camera(doc, v, "right", "M2", "D2", "distortion_model_2", size2)?;
+        let (_, _, r) = doc.matrix(doc.get(v, "", "R")?, "R", Some((3, 3)))?;
+        let (rows, cols, t) = doc.matrix(doc.get(v, "", "T")?, "T", None)?;
+        if rows * cols != 3 {
+            return Err(ExportError::field(
+                doc.path,
+                "T",
+                format!("expected 3 numbers, got {rows}x{cols}"),
+            ));
+        }
+        let rig = StereoRig {
+            left,
+            right,
+            rotation: Matrix3::from_row_slice(&r),
+            translation: Vector3::from_row_slice(&t),
+        };
+        rig.check()
+            .map_err(|e| ExportError::field(doc.path, "R", e.to_string()))?;
+        Ok(Calibrated::Stereo(rig))
+    } else {
+        Ok(Calibrated::Single(camera(
+            doc,
+            v,
+            "camera",
+            "camera_matrix",
+            "distortion_coefficients",
+            "distortion_model",
+            size,
+        )?))
+    }
+}

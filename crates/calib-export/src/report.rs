@@ -1,0 +1,1067 @@
+//! An HTML report of a calibration: `index.html` and one SVG per plot, drawn with `plotters`
+//! (no browser needed to produce it). How to read each plot: `docs/after-calibration.md`.
+//!
+//! Per camera:
+//!
+//! * `residuals-CAM.svg`: each observed corner's reprojection error as an arrow (scaled),
+//!   outliers (rejected points) in red;
+//! * `scatter-CAM.svg`: the errors `(dx, dy)` as a scatter, outliers in red;
+//! * `coverage-CAM.svg`: how many corners were observed in each cell of the image;
+//! * `rms-CAM.svg`: RMS per view, worst first;
+//! * `poses-CAM.svg`: the camera's frustum and the board in every view, in 3-D;
+//! * `distortion-CAM.svg`: the distortion field, `|distorted - undistorted|` in pixels, with arrows;
+//! * `uncertainty-CAM.svg`: the standard deviation (worst direction, pixels) of where a point
+//!   projects, from the intrinsics' covariance ([`crate::covariance`]).
+//!
+//! The residual, coverage and uncertainty plots need the observations (the board points and
+//! pixels); without them the report has the other plots and says what is missing.
+
+use crate::covariance::{CovarianceView, Uncertainty, worst_std};
+use crate::error::ExportError;
+use calib_core::ImageSize;
+use camera_model::{AnyCamera, Pose, UndistortOptions};
+use nalgebra::{Point3, Vector2, Vector3};
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Board points and the pixels where they were measured, in the same order.
+pub type ViewPoints = (Vec<Point3<f64>>, Vec<Vector2<f64>>);
+
+/// A measured pixel, its error (projected minus measured, pixels) and whether it was rejected.
+type Residual = (Vector2<f64>, Vector2<f64>, bool);
+
+/// The plots of a camera (with their SVG text) and notes about what is missing.
+type CameraPlots = (Vec<(Plot, String)>, Vec<String>);
+
+/// One view of one camera in a report.
+#[derive(Debug, Clone)]
+pub struct ReportView {
+    /// The view's name (image file).
+    pub name: String,
+    /// Board-to-camera pose.
+    pub pose: Pose,
+    /// RMS of the used points, pixels.
+    pub rms: f64,
+    /// Board points and measured pixels, when the observations are known.
+    pub points: Option<ViewPoints>,
+    /// Indices of the points rejected as outliers.
+    pub rejected: Vec<usize>,
+}
+
+/// One camera in a report.
+#[derive(Debug, Clone)]
+pub struct ReportCamera {
+    /// Its name ("camera", "left", "right"): also the SVG files' suffix.
+    pub name: String,
+    /// The calibrated camera.
+    pub camera: AnyCamera,
+    /// Image size.
+    pub image_size: ImageSize,
+    /// Indices (in `[fx, fy, cx, cy, distortion...]`) of the parameters held fixed.
+    pub fixed: Vec<usize>,
+    /// The views.
+    pub views: Vec<ReportView>,
+}
+
+/// What a report shows.
+#[derive(Debug, Clone)]
+pub struct ReportInput {
+    /// Title of the page.
+    pub title: String,
+    /// The calibration's summary text (shown as is).
+    pub summary: String,
+    /// The cameras.
+    pub cameras: Vec<ReportCamera>,
+}
+
+fn fixed_indices(camera: &AnyCamera, names: &[String]) -> Vec<usize> {
+    let mut all: Vec<&str> = vec!["fx", "fy", "cx", "cy"];
+    all.extend(camera.model.distortion_names());
+    names
+        .iter()
+        .filter_map(|n| all.iter().position(|a| a == n))
+        .collect()
+}
+
+fn observation_mismatch(what: &str) -> ExportError {
+    ExportError::invalid(
+        "report",
+        format!(
+            "the observation file does not match the result ({what}); give the file the result was calibrated from"
+        ),
+    )
+}
+
+/// Refuses observations that do not give (within 5%: duplicate points the calibration dropped
+/// count here) the view's stored RMS at its pose: the file is not the one the result was
+/// calibrated from (a different camera, another set's views, reordered corners).
+fn check_view_rms(
+    camera: &AnyCamera,
+    pose: &Pose,
+    points: &ViewPoints,
+    rejected: &[usize],
+    stored: f64,
+    what: &str,
+) -> Result<(), ExportError> {
+    let (object, pixels) = points;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (i, (x, m)) in object.iter().zip(pixels).enumerate() {
+        if rejected.contains(&i) {
+            continue;
+        }
+        match camera.project(pose, x) {
+            Ok(q) => {
+                sum += (q - m).norm_squared();
+                n += 1;
+            }
+            Err(_) => {
+                return Err(observation_mismatch(&format!(
+                    "{what}: a point does not project"
+                )));
+            }
+        }
+    }
+    let rms = if n > 0 { (sum / n as f64).sqrt() } else { 0.0 };
+    if (rms - stored).abs() > 0.05 * stored + 1e-6 {
+        return Err(observation_mismatch(&format!(
+            "{what}: RMS {rms:.4} px from the file, {stored:.4} px in the result"
+        )));
+    }
+    Ok(())
+}
+
+impl ReportInput {
+    /// The report of a single-camera result, with the observations it was calibrated from (if
+    /// given: they must be the same file).
+    pub fn single(
+        result: &calib_single::Calibration,
+        observations: Option<&calib_single::Observations>,
+    ) -> Result<Self, ExportError> {
+        let mut views = Vec::new();
+        for v in &result.views {
+            let points = match observations {
+                Some(o) => {
+                    let view = o
+                        .views
+                        .get(v.index)
+                        .ok_or_else(|| observation_mismatch(&format!("no view {}", v.index)))?;
+                    if v.rejected_points
+                        .iter()
+                        .any(|&i| i >= view.object_points.len())
+                    {
+                        return Err(observation_mismatch(&format!(
+                            "view {} has fewer points",
+                            v.index
+                        )));
+                    }
+                    Some((
+                        view.object_points.clone(),
+                        view.image_points.iter().map(|p| p.coords).collect(),
+                    ))
+                }
+                None => None,
+            };
+            if let Some(points) = &points {
+                check_view_rms(
+                    &result.camera,
+                    &v.pose,
+                    points,
+                    &v.rejected_points,
+                    v.rms,
+                    &format!("view {} ({})", v.index, v.name),
+                )?;
+            }
+            views.push(ReportView {
+                name: v.name.clone(),
+                pose: v.pose,
+                rms: v.rms,
+                points,
+                rejected: v.rejected_points.clone(),
+            });
+        }
+        Ok(ReportInput {
+            title: "Single-camera calibration".into(),
+            summary: result.summary(),
+            cameras: vec![ReportCamera {
+                name: "camera".into(),
+                camera: result.camera.clone(),
+                image_size: result.image_size,
+                fixed: fixed_indices(&result.camera, &result.fixed_parameters),
+                views,
+            }],
+        })
+    }
+
+    /// The report of a stereo result (one section per camera; the right camera's poses are the
+    /// left ones composed with the rig).
+    pub fn stereo(
+        result: &calib_stereo::StereoCalibration,
+        observations: Option<&calib_stereo::StereoObservations>,
+    ) -> Result<Self, ExportError> {
+        let mut cameras = Vec::new();
+        for (side, estimate) in [(0, &result.left), (1, &result.right)] {
+            let mut views = Vec::new();
+            for p in &result.pairs {
+                let pose = if side == 0 {
+                    p.left_pose
+                } else {
+                    result.rig.compose(&p.left_pose)
+                };
+                let rejected = if side == 0 {
+                    &p.rejected_left
+                } else {
+                    &p.rejected_right
+                };
+                let points = match observations {
+                    Some(o) => {
+                        let pair = o
+                            .pairs
+                            .get(p.index)
+                            .ok_or_else(|| observation_mismatch(&format!("no pair {}", p.index)))?;
+                        let view = if side == 0 { &pair.left } else { &pair.right };
+                        if rejected.iter().any(|&i| i >= view.object_points.len()) {
+                            return Err(observation_mismatch(&format!(
+                                "pair {} has fewer points",
+                                p.index
+                            )));
+                        }
+                        Some((
+                            view.object_points.clone(),
+                            view.image_points.iter().map(|q| q.coords).collect(),
+                        ))
+                    }
+                    None => None,
+                };
+                let name = if side == 0 {
+                    p.names.0.clone()
+                } else {
+                    p.names.1.clone()
+                };
+                let rms = if side == 0 { p.rms_left } else { p.rms_right };
+                if let Some(points) = &points {
+                    check_view_rms(
+                        &estimate.camera,
+                        &pose,
+                        points,
+                        rejected,
+                        rms,
+                        &format!("pair {} ({})", p.index, ["left", "right"][side]),
+                    )?;
+                }
+                views.push(ReportView {
+                    name,
+                    pose,
+                    rms,
+                    points,
+                    rejected: rejected.clone(),
+                });
+            }
+            let name = if estimate.name.is_empty() {
+                ["left", "right"][side].to_string()
+            } else {
+                estimate.name.clone()
+            };
+            cameras.push(ReportCamera {
+                name,
+                camera: estimate.camera.clone(),
+                image_size: estimate.image_size,
+                fixed: fixed_indices(&estimate.camera, &estimate.fixed_parameters),
+                views,
+            });
+        }
+        Ok(ReportInput {
+            title: "Stereo calibration".into(),
+            summary: result.summary(),
+            cameras,
+        })
+    }
+}
+
+type DrawResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// A colour of the viridis-like map for `t` in `0..=1`.
+fn colour(t: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } * 4.0;
+    let i = (t.floor() as usize).min(3);
+    let f = t - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |x: f64, y: f64| (x + (y - x) * f).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+struct Plot {
+    file: String,
+    title: String,
+    caption: String,
+}
+
+fn svg(
+    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> DrawResult<()>,
+    size: (u32, u32),
+) -> DrawResult<String> {
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        root.fill(&WHITE)?;
+        draw(&root)?;
+        root.present()?;
+    }
+    Ok(text)
+}
+
+/// Chart size for an image of `size`, about 640 px wide.
+fn chart_size(size: ImageSize) -> (u32, u32) {
+    let w = 640u32;
+    let h = ((size.height as f64 / size.width as f64) * 560.0 + 80.0)
+        .round()
+        .clamp(200.0, 900.0) as u32;
+    (w, h)
+}
+
+/// Height of the colour bar under a heat map, pixels.
+const BAR_HEIGHT: u32 = 44;
+
+/// Size of a heat map's SVG: the image chart and its colour bar.
+fn heat_size(size: ImageSize) -> (u32, u32) {
+    let (w, h) = chart_size(size);
+    (w, h + BAR_HEIGHT)
+}
+
+/// Draws a colour bar from 0 to `max` (`label` names the unit) along the bottom of `root` and
+/// returns the area above it for the map.
+fn colour_bar<'b>(
+    root: &DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    max: f64,
+    label: &str,
+) -> DrawResult<DrawingArea<SVGBackend<'b>, plotters::coord::Shift>> {
+    let (_, h) = root.dim_in_pixel();
+    let (top, bottom) = root.split_vertically(h.saturating_sub(BAR_HEIGHT));
+    let max = if max.is_finite() && max > 0.0 {
+        max
+    } else {
+        1.0
+    };
+    let mut c = ChartBuilder::on(&bottom)
+        .margin_left(55)
+        .margin_right(20)
+        .x_label_area_size(22)
+        .build_cartesian_2d(0.0..max, 0.0..1.0)?;
+    c.configure_mesh()
+        .disable_mesh()
+        .disable_y_axis()
+        .x_labels(6)
+        .x_desc(label)
+        .x_label_style(("sans-serif", 10))
+        .draw()?;
+    let steps = 60;
+    c.draw_series((0..steps).map(|i| {
+        let (a, b) = (i as f64 / steps as f64, (i + 1) as f64 / steps as f64);
+        Rectangle::new(
+            [(a * max, 0.0), (b * max, 1.0)],
+            colour((a + b) / 2.0).filled(),
+        )
+    }))?;
+    Ok(top)
+}
+
+/// Residuals `projected - measured` of each point of each view with points.
+fn residuals(camera: &ReportCamera) -> Vec<Vec<Residual>> {
+    camera
+        .views
+        .iter()
+        .map(|v| match &v.points {
+            Some((object, pixels)) => object
+                .iter()
+                .zip(pixels)
+                .enumerate()
+                .filter_map(|(i, (x, m))| {
+                    let q = camera.camera.project(&v.pose, x).ok()?;
+                    Some((*m, q - m, v.rejected.contains(&i)))
+                })
+                .collect(),
+            None => Vec::new(),
+        })
+        .collect()
+}
+
+type ImageChart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+fn image_chart<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    size: ImageSize,
+    caption: &str,
+) -> DrawResult<ImageChart<'a, 'b>> {
+    let (w, h) = (size.width as f64, size.height as f64);
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 16))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(45)
+        .build_cartesian_2d(-0.5..w - 0.5, h - 0.5..-0.5)?;
+    chart
+        .configure_mesh()
+        .x_desc("x (px)")
+        .y_desc("y (px)")
+        .disable_mesh()
+        .draw()?;
+    Ok(chart)
+}
+
+/// Writes the report into `dir` (created if needed): `index.html` and the SVG files, each
+/// atomically. Returns the files written.
+pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::Write {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let mut written = Vec::new();
+    let mut sections = String::new();
+    for camera in &input.cameras {
+        let (plots, notes) = camera_plots(camera).map_err(|e| {
+            ExportError::invalid(format!("report of camera '{}'", camera.name), e.to_string())
+        })?;
+        let _ = writeln!(
+            sections,
+            "<h2>Camera '{}' ({}, {}x{})</h2>",
+            html(&camera.name),
+            camera.camera.model,
+            camera.image_size.width,
+            camera.image_size.height
+        );
+        for note in notes {
+            let _ = writeln!(sections, "<p class=\"note\">{}</p>", html(&note));
+        }
+        for (plot, text) in plots {
+            let path = dir.join(&plot.file);
+            calib_core::write_atomically(&path, text.as_bytes()).map_err(|source| {
+                ExportError::Write {
+                    path: path.display().to_string(),
+                    source,
+                }
+            })?;
+            written.push(path);
+            let _ = writeln!(
+                sections,
+                "<figure><h3>{}</h3><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>",
+                html(&plot.title),
+                plot.file,
+                html(&plot.title),
+                html(&plot.caption)
+            );
+        }
+    }
+    let page = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:1400px;margin:1em auto;padding:0 1em}}figure{{display:inline-block;vertical-align:top;width:660px;margin:0.5em}}figure img{{width:640px;border:1px solid #ccc}}figcaption{{font-size:0.9em;color:#333}}pre{{background:#f4f4f4;padding:0.5em;overflow-x:auto}}.note{{color:#a40}}</style></head>\n<body><h1>{title}</h1>\n<pre>{summary}</pre>\n{sections}<p>How to read these plots: docs/after-calibration.md.</p></body></html>\n",
+        title = html(&input.title),
+        summary = html(&input.summary),
+    );
+    let index = dir.join("index.html");
+    calib_core::write_atomically(&index, page.as_bytes()).map_err(|source| ExportError::Write {
+        path: index.display().to_string(),
+        source,
+    })?;
+    written.push(index);
+    Ok(written)
+}
+
+fn html(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn safe_name(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
+    let name = safe_name(&camera.name);
+    let size = camera.image_size;
+    let chart = chart_size(size);
+    let mut plots = Vec::new();
+    let mut notes = Vec::new();
+    let res = residuals(camera);
+    let have_points = camera.views.iter().any(|v| v.points.is_some());
+    if have_points {
+        let all: Vec<&Residual> = res.iter().flatten().collect();
+        let max_err = all
+            .iter()
+            .filter(|r| !r.2)
+            .map(|r| r.1.norm())
+            .fold(0.0, f64::max)
+            .max(1e-6);
+        // Arrows: the largest inlier error drawn 5% of the image width long.
+        let scale = 0.05 * size.width as f64 / max_err;
+        let text = svg(
+            |root| {
+                let mut c = image_chart(
+                    root,
+                    size,
+                    &format!("reprojection errors x{scale:.0} (red: rejected outliers)"),
+                )?;
+                c.draw_series(all.iter().filter(|r| !r.2).map(|(m, e, _)| {
+                    PathElement::new(
+                        vec![(m.x, m.y), (m.x + scale * e.x, m.y + scale * e.y)],
+                        BLUE.stroke_width(1),
+                    )
+                }))?;
+                c.draw_series(
+                    all.iter()
+                        .filter(|r| !r.2)
+                        .map(|(m, _, _)| Circle::new((m.x, m.y), 1, BLUE.filled())),
+                )?;
+                c.draw_series(
+                    all.iter()
+                        .filter(|r| r.2)
+                        .map(|(m, _, _)| Cross::new((m.x, m.y), 4, RED.stroke_width(2))),
+                )?;
+                Ok(())
+            },
+            chart,
+        )?;
+        plots.push((Plot { file: format!("residuals-{name}.svg"), title: "Reprojection errors over the image".into(), caption: format!("Each observed corner with its error (projected minus measured) as an arrow, magnified {scale:.0} times; rejected outliers as red crosses. Errors should look random; arrows that line up (all outward at the edges, swirling) mean the lens model misses something.") }, text));
+        let lim = all
+            .iter()
+            .map(|r| r.1.x.abs().max(r.1.y.abs()))
+            .fold(0.0, f64::max)
+            .max(1e-3)
+            * 1.1;
+        let text = svg(
+            |root| {
+                let mut c = ChartBuilder::on(root)
+                    .caption(
+                        "reprojection error scatter (red: rejected outliers)",
+                        ("sans-serif", 16),
+                    )
+                    .margin(10)
+                    .x_label_area_size(30)
+                    .y_label_area_size(45)
+                    .build_cartesian_2d(-lim..lim, -lim..lim)?;
+                c.configure_mesh()
+                    .x_desc("dx (px)")
+                    .y_desc("dy (px)")
+                    .draw()?;
+                c.draw_series(
+                    all.iter()
+                        .filter(|r| !r.2)
+                        .map(|(_, e, _)| Circle::new((e.x, e.y), 2, BLUE.mix(0.5).filled())),
+                )?;
+                c.draw_series(
+                    all.iter()
+                        .filter(|r| r.2)
+                        .map(|(_, e, _)| Cross::new((e.x, e.y), 4, RED.stroke_width(2))),
+                )?;
+                Ok(())
+            },
+            (520, 520),
+        )?;
+        plots.push((Plot { file: format!("scatter-{name}.svg"), title: "Error scatter".into(), caption: "Every point's error (dx, dy). A round cloud centred at zero is good; an elongated or offset cloud, or several clusters, point to a model or data problem.".into() }, text));
+        // Coverage: counts per cell of about 1/16 of the width.
+        let cell = (size.width.max(size.height) as f64 / 16.0).max(1.0);
+        let (nx, ny) = (
+            (size.width as f64 / cell).ceil() as usize,
+            (size.height as f64 / cell).ceil() as usize,
+        );
+        let mut counts = vec![0usize; nx * ny];
+        for (m, _, _) in &all {
+            let (i, j) = ((m.x + 0.5) / cell, (m.y + 0.5) / cell);
+            if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
+                counts[j as usize * nx + i as usize] += 1;
+            }
+        }
+        let most = *counts.iter().max().unwrap_or(&1) as f64;
+        let empty = counts.iter().filter(|&&c| c == 0).count();
+        let text = svg(
+            |root| {
+                let map = colour_bar(root, most, "corners per cell (grey: none)")?;
+                let mut c = image_chart(
+                    &map,
+                    size,
+                    &format!(
+                        "observed corners per {cell:.0} px cell (max {most:.0}; {empty} of {} cells empty)",
+                        nx * ny
+                    ),
+                )?;
+                c.draw_series((0..nx * ny).map(|k| {
+                    let (i, j) = ((k % nx) as f64, (k / nx) as f64);
+                    let colour = if counts[k] == 0 {
+                        RGBColor(235, 235, 235)
+                    } else {
+                        colour(counts[k] as f64 / most)
+                    };
+                    Rectangle::new(
+                        [
+                            (i * cell - 0.5, j * cell - 0.5),
+                            ((i + 1.0) * cell - 0.5, (j + 1.0) * cell - 0.5),
+                        ],
+                        colour.filled(),
+                    )
+                }))?;
+                Ok(())
+            },
+            heat_size(size),
+        )?;
+        plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: "How many corners were observed in each cell (grey: none). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.".into() }, text));
+    } else {
+        notes.push("No observations were given (calib report --observations OBS.json): the residual, scatter, coverage and uncertainty plots are left out.".to_string());
+    }
+
+    // Per-view RMS, worst first.
+    let mut order: Vec<&ReportView> = camera.views.iter().collect();
+    order.sort_by(|a, b| b.rms.total_cmp(&a.rms));
+    let top = order.first().map_or(1.0, |v| v.rms).max(1e-6) * 1.1;
+    let n = order.len();
+    let text = svg(
+        |root| {
+            let mut c = ChartBuilder::on(root)
+                .caption("RMS per view, worst first", ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(70)
+                .y_label_area_size(45)
+                .build_cartesian_2d(0.0..n.max(1) as f64, 0.0..top)?;
+            c.configure_mesh()
+                .y_desc("RMS (px)")
+                .x_labels(n.clamp(1, 40))
+                .x_label_formatter(&|x| {
+                    order
+                        .get(x.floor() as usize)
+                        .map(|v| v.name.clone())
+                        .unwrap_or_default()
+                })
+                .x_label_style(
+                    ("sans-serif", 10)
+                        .into_font()
+                        .transform(FontTransform::Rotate90),
+                )
+                .disable_x_mesh()
+                .draw()?;
+            c.draw_series(order.iter().enumerate().map(|(i, v)| {
+                Rectangle::new(
+                    [(i as f64 + 0.1, 0.0), (i as f64 + 0.9, v.rms)],
+                    BLUE.mix(0.7).filled(),
+                )
+            }))?;
+            Ok(())
+        },
+        (640, 360),
+    )?;
+    plots.push((Plot { file: format!("rms-{name}.svg"), title: "RMS per view".into(), caption: "Each view's RMS reprojection error, worst first. A view far above the others (a blurred image, a mislabelled board) is worth checking or removing.".into() }, text));
+
+    plots.push((Plot { file: format!("poses-{name}.svg"), title: "Board poses".into(), caption: "The camera (frustum at the origin, looking along z) and the board in every view, in the camera's frame (board units). Good data shows boards at several distances and tilted in different directions, not all parallel to the image.".into() }, poses_svg(camera)?));
+    let validity = camera
+        .camera
+        .validity(camera.image_size.width, camera.image_size.height);
+    let (text, max_shift) = distortion_svg(camera, &validity)?;
+    let valid_text = if validity.covers_image(0.0) {
+        format!(
+            "The model is one-to-one over the whole image: it stays valid out to {} from the principal point, the farthest image corner being {:.0} px away (validity coverage {:.2}).",
+            if validity.valid_radius_px.is_finite() {
+                let shown = if validity.valid_radius_px
+                    < camera.image_size.width.max(camera.image_size.height) as f64
+                {
+                    "black dashes where the circle crosses the image"
+                } else {
+                    "outside the image"
+                };
+                format!("{:.0} px ({shown})", validity.valid_radius_px)
+            } else {
+                "as far as it was checked".to_string()
+            },
+            validity.image_radius_px,
+            validity.coverage
+        )
+    } else {
+        format!(
+            "The model stops being one-to-one {:.0} px from the principal point (red dashed circle; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the circle the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
+            validity.valid_radius_px, validity.image_radius_px, validity.coverage
+        )
+    };
+    plots.push((Plot { file: format!("distortion-{name}.svg"), title: "Distortion field".into(), caption: format!("How far the lens moves each pixel from where an ideal pinhole camera would put it (|distorted - undistorted|, colour, up to {max_shift:.1} px) and in which direction (arrows, towards the distorted position). Pixels where the model cannot be inverted are left white. {valid_text}") }, text));
+    if have_points {
+        match uncertainty_svg(camera) {
+            Ok(u) => plots.push((Plot { file: format!("uncertainty-{name}.svg"), title: "Projection uncertainty".into(), caption: format!("Standard deviation (worst direction, pixels) of where a point seen at each pixel projects, {} board units from the camera (the boards' median distance), propagated from the covariance of the intrinsics and the board poses as mrcal does (the point is fixed relative to the boards). Median over the image {:.3} px; at infinity {:.3} px; at twice the distance {:.3} px; intrinsics alone (camera frame held) {:.3} px; pixel noise {:.3} px. It grows where few corners were observed (compare with the coverage plot) and away from the boards' distance.", significant(u.distance), u.median, u.median_infinity, u.median_double, u.median_intrinsics, u.sigma) }, u.text)),
+            Err(e) => notes.push(format!("No uncertainty plot: {e}")),
+        }
+    }
+    Ok((plots, notes))
+}
+
+fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
+    // Board outlines from the observed points (or a unit square), in the camera frame.
+    let mut boards: Vec<Vec<Vector3<f64>>> = Vec::new();
+    for v in &camera.views {
+        let corners = match &v.points {
+            Some((object, _)) if !object.is_empty() => {
+                let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+                for p in object {
+                    x0 = x0.min(p.x);
+                    x1 = x1.max(p.x);
+                    y0 = y0.min(p.y);
+                    y1 = y1.max(p.y);
+                }
+                [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+            }
+            _ => {
+                let s = 0.1 * v.pose.translation.norm();
+                [(0.0, 0.0), (s, 0.0), (s, s), (0.0, s), (0.0, 0.0)]
+            }
+        };
+        boards.push(
+            corners
+                .iter()
+                .map(|&(x, y)| v.pose.transform_point(&Point3::new(x, y, 0.0)))
+                .collect(),
+        );
+    }
+    let far = boards
+        .iter()
+        .flatten()
+        .map(|p| p.norm())
+        .fold(0.0, f64::max)
+        .max(1e-6);
+    let depth = 0.25 * far;
+    let k = camera.camera.intrinsics;
+    let (w, h) = (
+        camera.image_size.width as f64,
+        camera.image_size.height as f64,
+    );
+    let frustum: Vec<Vector3<f64>> = [
+        (0.0, 0.0),
+        (w - 1.0, 0.0),
+        (w - 1.0, h - 1.0),
+        (0.0, h - 1.0),
+    ]
+    .iter()
+    .map(|&(u, v)| Vector3::new((u - k.cx) / k.fx * depth, (v - k.cy) / k.fy * depth, depth))
+    .collect();
+    // Plot axes: x right, up = -y (camera y points down), depth z.
+    let to = |p: &Vector3<f64>| (p.x, -p.y, p.z);
+    let lim = boards
+        .iter()
+        .flatten()
+        .map(|p| p.x.abs().max(p.y.abs()))
+        .fold(depth, f64::max)
+        * 1.05;
+    let zmax = boards.iter().flatten().map(|p| p.z).fold(depth, f64::max) * 1.05;
+    svg(
+        |root| {
+            let mut c = ChartBuilder::on(root)
+                .caption("camera and boards (camera frame)", ("sans-serif", 16))
+                .margin(10)
+                .build_cartesian_3d(-lim..lim, -lim..lim, 0.0..zmax)?;
+            c.with_projection(|mut p| {
+                p.pitch = 0.35;
+                p.yaw = 0.6;
+                p.scale = 0.85;
+                p.into_matrix()
+            });
+            c.configure_axes().draw()?;
+            let origin = (0.0, 0.0, 0.0);
+            for corner in &frustum {
+                c.draw_series(std::iter::once(PathElement::new(
+                    vec![origin, to(corner)],
+                    BLACK.stroke_width(2),
+                )))?;
+            }
+            let mut ring: Vec<(f64, f64, f64)> = frustum.iter().map(to).collect();
+            ring.push(ring[0]);
+            c.draw_series(std::iter::once(PathElement::new(
+                ring,
+                BLACK.stroke_width(2),
+            )))?;
+            let n = boards.len().max(1);
+            for (i, b) in boards.iter().enumerate() {
+                let col = colour(i as f64 / n as f64);
+                c.draw_series(std::iter::once(PathElement::new(
+                    b.iter().map(to).collect::<Vec<_>>(),
+                    col.stroke_width(2),
+                )))?;
+            }
+            Ok(())
+        },
+        (640, 560),
+    )
+}
+
+fn distortion_svg(
+    camera: &ReportCamera,
+    validity: &camera_model::Validity,
+) -> DrawResult<(String, f64)> {
+    let size = camera.image_size;
+    let k = camera.camera.intrinsics;
+    let cell = (size.width.max(size.height) as f64 / 32.0).max(1.0);
+    let (nx, ny) = (
+        (size.width as f64 / cell).ceil() as usize,
+        (size.height as f64 / cell).ceil() as usize,
+    );
+    // Shift at each cell centre: distorted pixel minus where the undistorted ray lands with K.
+    let mut shifts = vec![None; nx * ny];
+    for j in 0..ny {
+        for i in 0..nx {
+            let q = Vector2::new((i as f64 + 0.5) * cell - 0.5, (j as f64 + 0.5) * cell - 0.5);
+            if let Ok(ray) = camera.camera.pixel_to_ray(&q, &UndistortOptions::default())
+                && ray.z > 1e-6
+            {
+                let ideal = Vector2::new(k.fx * ray.x / ray.z + k.cx, k.fy * ray.y / ray.z + k.cy);
+                shifts[j * nx + i] = Some(q - ideal);
+            }
+        }
+    }
+    let max_shift = shifts
+        .iter()
+        .flatten()
+        .map(|s| s.norm())
+        .fold(0.0, f64::max);
+    let text = svg(
+        |root| {
+            let map = colour_bar(root, max_shift, "|distorted - undistorted| (px)")?;
+            let mut c = image_chart(
+                &map,
+                size,
+                &format!(
+                    "distortion: |shift| up to {max_shift:.1} px (arrows x{:.1})",
+                    0.9 * cell * 2.0 / max_shift.max(1e-9)
+                ),
+            )?;
+            c.draw_series((0..nx * ny).filter_map(|k| {
+                let s = shifts[k]?;
+                let (i, j) = ((k % nx) as f64, (k / nx) as f64);
+                Some(Rectangle::new(
+                    [
+                        (i * cell - 0.5, j * cell - 0.5),
+                        ((i + 1.0) * cell - 0.5, (j + 1.0) * cell - 0.5),
+                    ],
+                    colour(s.norm() / max_shift.max(1e-9)).filled(),
+                ))
+            }))?;
+            let arrow_scale = 0.9 * cell * 2.0 / max_shift.max(1e-9);
+            c.draw_series(
+                (0..nx * ny)
+                    .filter(|k| (k % nx) % 2 == 0 && (k / nx) % 2 == 0)
+                    .filter_map(|k| {
+                        let s = shifts[k]?;
+                        let (x, y) = (
+                            ((k % nx) as f64 + 0.5) * cell - 0.5,
+                            ((k / nx) as f64 + 0.5) * cell - 0.5,
+                        );
+                        Some(PathElement::new(
+                            vec![(x - arrow_scale * s.x, y - arrow_scale * s.y), (x, y)],
+                            WHITE.stroke_width(1),
+                        ))
+                    }),
+            )?;
+            // The validity radius: dashes of the circle inside the image.
+            let radius = validity.valid_radius_px;
+            if radius.is_finite() && radius > 0.0 {
+                let style = if validity.covers_image(0.0) {
+                    BLACK.stroke_width(2)
+                } else {
+                    RED.stroke_width(3)
+                };
+                let (w, h) = (size.width as f64, size.height as f64);
+                let inside =
+                    |x: f64, y: f64| (-0.5..=w - 0.5).contains(&x) && (-0.5..=h - 0.5).contains(&y);
+                let steps = 240;
+                c.draw_series((0..steps).step_by(2).filter_map(|i| {
+                    let a0 = std::f64::consts::TAU * i as f64 / steps as f64;
+                    let a1 = std::f64::consts::TAU * (i + 1) as f64 / steps as f64;
+                    let p0 = (k.cx + radius * a0.cos(), k.cy + radius * a0.sin());
+                    let p1 = (k.cx + radius * a1.cos(), k.cy + radius * a1.sin());
+                    (inside(p0.0, p0.1) && inside(p1.0, p1.1))
+                        .then(|| PathElement::new(vec![p0, p1], style))
+                }))?;
+            }
+            Ok(())
+        },
+        heat_size(size),
+    )?;
+    Ok((text, max_shift))
+}
+
+/// The projection-uncertainty map and the numbers its caption quotes.
+struct UncertaintyPlot {
+    text: String,
+    /// The distance of the map (the boards' median distance), board units.
+    distance: f64,
+    /// Median over the image of the worst-direction standard deviation at `distance`, pixels.
+    median: f64,
+    /// The same at infinity.
+    median_infinity: f64,
+    /// The same at twice `distance`.
+    median_double: f64,
+    /// The same from the intrinsics alone (camera frame held).
+    median_intrinsics: f64,
+    /// Pixel noise, pixels.
+    sigma: f64,
+}
+
+/// `v` with four significant digits (no exponent for everyday magnitudes).
+fn significant(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.retain(|v| v.is_finite());
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<UncertaintyPlot> {
+    let views: Vec<CovarianceView> = camera
+        .views
+        .iter()
+        .filter_map(|v| {
+            let (object, pixels) = v.points.as_ref()?;
+            let keep: Vec<usize> = (0..object.len())
+                .filter(|i| !v.rejected.contains(i))
+                .collect();
+            Some(CovarianceView {
+                pose: v.pose,
+                object: keep.iter().map(|&i| object[i]).collect(),
+                pixels: keep.iter().map(|&i| pixels[i]).collect(),
+            })
+        })
+        .collect();
+    let uncertainty = Uncertainty::new(&camera.camera, &views, &camera.fixed)?;
+    // The boards' median distance: of each board's centre from the camera.
+    let distance = median(
+        views
+            .iter()
+            .filter(|v| !v.object.is_empty())
+            .map(|v| {
+                let centre =
+                    v.object.iter().map(|p| p.coords).sum::<Vector3<f64>>() / v.object.len() as f64;
+                (v.pose.rotation * centre + v.pose.translation).norm()
+            })
+            .collect(),
+    );
+    if !(distance.is_finite() && distance > 0.0) {
+        return Err("no board distance".into());
+    }
+    let size = camera.image_size;
+    let cell = (size.width.max(size.height) as f64 / 40.0).max(1.0);
+    let (nx, ny) = (
+        (size.width as f64 / cell).ceil() as usize,
+        (size.height as f64 / cell).ceil() as usize,
+    );
+    let centre = |k: usize| {
+        Vector2::new(
+            ((k % nx) as f64 + 0.5) * cell - 0.5,
+            ((k / nx) as f64 + 0.5) * cell - 0.5,
+        )
+    };
+    let std_at = |q: &Vector2<f64>, d: Option<f64>| {
+        uncertainty
+            .projection(q, d)
+            .map_or(f64::NAN, |c| worst_std(&c))
+    };
+    let values: Vec<f64> = (0..nx * ny)
+        .map(|k| std_at(&centre(k), Some(distance)))
+        .collect();
+    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        return Err("no pixel could be evaluated".into());
+    }
+    let median_d = median(finite.clone());
+    let top = finite.iter().copied().fold(0.0, f64::max).max(1e-12);
+    // The comparison numbers on a coarser grid (every other cell).
+    let coarse: Vec<Vector2<f64>> = (0..nx * ny)
+        .filter(|k| (k % nx) % 2 == 0 && (k / nx) % 2 == 0)
+        .map(centre)
+        .collect();
+    let median_infinity = median(coarse.iter().map(|q| std_at(q, None)).collect());
+    let median_double = median(
+        coarse
+            .iter()
+            .map(|q| std_at(q, Some(2.0 * distance)))
+            .collect(),
+    );
+    let covariance = uncertainty.intrinsics_covariance();
+    let median_intrinsics = median(
+        coarse
+            .iter()
+            .map(|q| {
+                camera
+                    .camera
+                    .pixel_to_ray(q, &UndistortOptions::default())
+                    .ok()
+                    .and_then(|ray| {
+                        crate::covariance::projection_covariance(
+                            &camera.camera,
+                            &covariance,
+                            &ray.into_inner(),
+                        )
+                    })
+                    .map_or(f64::NAN, |c| worst_std(&c))
+            })
+            .collect(),
+    );
+    // Ten bands of equal width: a filled contour map.
+    let band = |v: f64| ((v / top * 10.0).floor().min(9.0) + 0.5) / 10.0;
+    let text = svg(
+        |root| {
+            let map = colour_bar(root, top, "projection std, worst direction (px)")?;
+            let mut c = image_chart(
+                &map,
+                size,
+                &format!(
+                    "projection std (px) at distance {}: 10 bands from 0 to {top:.3}; median {median_d:.3}",
+                    significant(distance)
+                ),
+            )?;
+            c.draw_series((0..nx * ny).filter(|k| values[*k].is_finite()).map(|k| {
+                let (i, j) = ((k % nx) as f64, (k / nx) as f64);
+                Rectangle::new(
+                    [
+                        (i * cell - 0.5, j * cell - 0.5),
+                        ((i + 1.0) * cell - 0.5, (j + 1.0) * cell - 0.5),
+                    ],
+                    colour(band(values[k])).filled(),
+                )
+            }))?;
+            Ok(())
+        },
+        heat_size(size),
+    )?;
+    Ok(UncertaintyPlot {
+        text,
+        distance,
+        median: median_d,
+        median_infinity,
+        median_double,
+        median_intrinsics,
+        sigma: uncertainty.sigma(),
+    })
+}

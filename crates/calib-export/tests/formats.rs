@@ -1,0 +1,347 @@
+//! Every format round-trips every model it can hold, bit for bit; the models a format cannot
+//! hold give a typed error; bad files give errors that name the file and the key.
+
+use calib_core::ImageSize;
+use calib_export::{
+    Calibrated, CameraCalibration, ExportError, ExportOptions, Format, StereoRig, export,
+    export_texts, parse_calibration, read_calibration,
+};
+use camera_model::{AnyCamera, AxisAngle, CameraModel, Intrinsics, RotationParameterization};
+use nalgebra::Vector3;
+
+/// A camera of `model` with distinct, awkward coefficients (not short decimals, mixed signs and
+/// magnitudes down to 1e-7), so exact round trips are a real test.
+fn camera(model: CameraModel, name: &str, seed: f64) -> CameraCalibration {
+    let d: Vec<f64> = (0..model.num_distortion_params())
+        .map(|i| ((i as f64 + 1.0) * 0.731 + seed).sin() * 10f64.powi(-(i as i32 % 7)) / 3.0)
+        .collect();
+    CameraCalibration::new(
+        name,
+        AnyCamera::new(
+            model,
+            Intrinsics::new(
+                463.0270001 + seed,
+                462.9 + seed / 7.0,
+                314.45512,
+                187.3021 - seed,
+            ),
+            d,
+        )
+        .unwrap(),
+        ImageSize::new(640, 360),
+    )
+    .unwrap()
+}
+
+fn rig(left: CameraModel, right: CameraModel) -> StereoRig {
+    StereoRig {
+        left: camera(left, "left", 0.1),
+        right: camera(right, "right", 0.37),
+        rotation: AxisAngle::matrix(&Vector3::new(0.011, -0.0234, 0.0051)),
+        translation: Vector3::new(-93.8412, -0.9213, 2.8511),
+    }
+}
+
+/// Whether `format` can hold `camera` (the exporters' documented model tables).
+fn supported(format: Format, camera: &CameraCalibration) -> bool {
+    match (format, camera.camera.model) {
+        (Format::Kalibr, CameraModel::Rational8 | CameraModel::ThinPrism12) => false,
+        (Format::Kalibr, CameraModel::BrownConrady5) => camera.camera.distortion[4] == 0.0,
+        (Format::Ros, CameraModel::ThinPrism12) => false,
+        _ => true,
+    }
+}
+
+fn same_camera(a: &CameraCalibration, b: &CameraCalibration, what: &str) {
+    assert_eq!(a.camera.model, b.camera.model, "{what}");
+    assert_eq!(a.image_size, b.image_size, "{what}");
+    let (pa, pb) = (a.camera.params(), b.camera.params());
+    assert_eq!(pa.len(), pb.len(), "{what}");
+    for (x, y) in pa.iter().zip(&pb) {
+        assert_eq!(x.to_bits(), y.to_bits(), "{what}: {pa:?} vs {pb:?}");
+    }
+}
+
+fn read_back(format: Format, original: &Calibrated, texts: &[String]) -> Calibrated {
+    match (format, original) {
+        (Format::Ros, Calibrated::Stereo(s)) => {
+            let cams: Vec<CameraCalibration> = texts
+                .iter()
+                .map(|t| match parse_calibration(t, "ros.yaml").unwrap() {
+                    Calibrated::Single(c) => c,
+                    other => panic!("{other:?}"),
+                })
+                .collect();
+            assert_eq!(cams[0].name, "left");
+            assert_eq!(cams[1].name, "right");
+            Calibrated::Stereo(StereoRig {
+                left: cams[0].clone(),
+                right: cams[1].clone(),
+                rotation: s.rotation,
+                translation: s.translation,
+            })
+        }
+        _ => {
+            assert_eq!(texts.len(), 1);
+            parse_calibration(&texts[0], "file.yaml").unwrap()
+        }
+    }
+}
+
+#[test]
+fn single_cameras_round_trip_in_every_format_that_holds_their_model() {
+    for format in Format::ALL {
+        for model in CameraModel::ALL {
+            let c = camera(model, "camera", 0.2);
+            let original = Calibrated::Single(c.clone());
+            let result = export_texts(&original, format, &ExportOptions::default());
+            if !supported(format, &c) {
+                assert!(
+                    matches!(result, Err(ExportError::UnsupportedModel { model: m, .. }) if m == model),
+                    "{format} {model}: {result:?}"
+                );
+                continue;
+            }
+            let texts = result.unwrap_or_else(|e| panic!("{format} {model}: {e}"));
+            match read_back(format, &original, &texts) {
+                Calibrated::Single(back) => same_camera(&c, &back, &format!("{format} {model}")),
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn stereo_rigs_round_trip_in_every_format_that_holds_their_models() {
+    for format in Format::ALL {
+        for model in CameraModel::ALL {
+            let original = rig(
+                model,
+                if model == CameraModel::ThinPrism12 {
+                    model
+                } else {
+                    CameraModel::BrownConrady4
+                },
+            );
+            let calibrated = Calibrated::Stereo(original.clone());
+            let result = export_texts(&calibrated, format, &ExportOptions::default());
+            if !supported(format, &original.left) {
+                assert!(
+                    matches!(result, Err(ExportError::UnsupportedModel { .. })),
+                    "{format} {model}: {result:?}"
+                );
+                continue;
+            }
+            let texts = result.unwrap_or_else(|e| panic!("{format} {model}: {e}"));
+            let Calibrated::Stereo(back) = read_back(format, &calibrated, &texts) else {
+                panic!()
+            };
+            same_camera(
+                &original.left,
+                &back.left,
+                &format!("{format} {model} left"),
+            );
+            same_camera(
+                &original.right,
+                &back.right,
+                &format!("{format} {model} right"),
+            );
+            for (a, b) in original
+                .rotation
+                .iter()
+                .chain(original.translation.iter())
+                .zip(back.rotation.iter().chain(back.translation.iter()))
+            {
+                assert_eq!(a.to_bits(), b.to_bits(), "{format} {model} rig");
+            }
+        }
+    }
+}
+
+#[test]
+fn opencv_stereo_file_has_the_rectification_and_epipolar_matrices() {
+    let r = rig(CameraModel::BrownConrady5, CameraModel::BrownConrady5);
+    let text = &export_texts(
+        &Calibrated::Stereo(r.clone()),
+        Format::OpenCv,
+        &ExportOptions::default(),
+    )
+    .unwrap()[0];
+    assert!(text.starts_with("%YAML:1.0\n---\n"));
+    for key in [
+        "M1", "D1", "M2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q",
+    ] {
+        assert!(
+            text.contains(&format!("\n{key}: !!opencv-matrix\n")),
+            "{key}"
+        );
+    }
+    // The essential matrix in the file satisfies the epipolar constraint of the rig.
+    let v: serde_norway::Value =
+        serde_norway::from_str(text.strip_prefix("%YAML:1.0\n").unwrap()).unwrap();
+    let e: Vec<f64> = v["E"]["data"]
+        .as_sequence()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let e = nalgebra::Matrix3::from_row_slice(&e);
+    let x_left = Vector3::new(0.3, -0.2, 4.0);
+    let x_right = r.rotation * x_left + r.translation;
+    let constraint = (x_right / x_right.z).dot(&(e * (x_left / x_left.z)));
+    assert!(constraint.abs() < 1e-12 * e.norm(), "{constraint}");
+}
+
+#[test]
+fn translation_scale_converts_units_for_kalibr_and_ros() {
+    let r = rig(CameraModel::BrownConrady4, CameraModel::BrownConrady4);
+    let options = ExportOptions::new(Some(0.0), 0.001).unwrap();
+    let text = &export_texts(&Calibrated::Stereo(r.clone()), Format::Kalibr, &options).unwrap()[0];
+    let Calibrated::Stereo(back) = parse_calibration(text, "camchain.yaml").unwrap() else {
+        panic!()
+    };
+    assert!((back.translation - r.translation * 0.001).norm() < 1e-15);
+    let ros = export_texts(&Calibrated::Stereo(r.clone()), Format::Ros, &options).unwrap();
+    let v: serde_norway::Value = serde_norway::from_str(&ros[1]).unwrap();
+    let p: Vec<f64> = v["projection_matrix"]["data"]
+        .as_sequence()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    // ROS's baseline: -P[0][3] / P[0][0], in metres here.
+    let baseline = -p[3] / p[0];
+    assert!(
+        (baseline - r.translation.norm() * 0.001).abs() < 1e-12,
+        "{baseline}"
+    );
+    assert!(ExportOptions::new(Some(0.0), 0.0).is_err());
+    assert!(ExportOptions::new(Some(1.5), 1.0).is_err());
+}
+
+#[test]
+fn ros_stereo_writes_one_file_per_camera_and_files_are_replaced_atomically() {
+    let dir = std::env::temp_dir().join(format!("calib-export-formats-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let r = Calibrated::Stereo(rig(
+        CameraModel::KannalaBrandt4,
+        CameraModel::KannalaBrandt4,
+    ));
+    let written = export(
+        &r,
+        Format::Ros,
+        &dir.join("rig.yaml"),
+        &ExportOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        written,
+        vec![dir.join("rig-left.yaml"), dir.join("rig-right.yaml")]
+    );
+    for path in &written {
+        let Calibrated::Single(c) = read_calibration(path).unwrap() else {
+            panic!()
+        };
+        assert_eq!(c.camera.model, CameraModel::KannalaBrandt4);
+    }
+    // A failing export (unsupported model) leaves the previous file untouched.
+    let before = std::fs::read_to_string(&written[0]).unwrap();
+    let bad = Calibrated::Stereo(rig(CameraModel::ThinPrism12, CameraModel::ThinPrism12));
+    assert!(
+        export(
+            &bad,
+            Format::Ros,
+            &dir.join("rig.yaml"),
+            &ExportOptions::default()
+        )
+        .is_err()
+    );
+    assert_eq!(std::fs::read_to_string(&written[0]).unwrap(), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_files_are_typed_errors_naming_file_and_key() {
+    let good = export_texts(
+        &Calibrated::Single(camera(CameraModel::BrownConrady5, "c", 0.0)),
+        Format::OpenCv,
+        &ExportOptions::default(),
+    )
+    .unwrap()
+    .remove(0);
+    let cases: Vec<(String, &str)> = vec![
+        (
+            good.replace("rows: 3\n   cols: 3", "rows: 2\n   cols: 3"),
+            "camera_matrix",
+        ),
+        (
+            good.replace("image_width: 640", "image_width: -640"),
+            "image_width",
+        ),
+        (
+            good.replace("\"brown-conrady5\"", "\"pinhole-radial9\""),
+            "distortion_model",
+        ),
+        (
+            good.replace("cols: 5", "cols: 6"),
+            "distortion_coefficients",
+        ),
+        (
+            "%YAML:1.0\n---\ncamera_matrix: [1, 2\n".to_string(),
+            "bad.yaml",
+        ),
+        (
+            "{\"format\": \"something-else/1\"}".to_string(),
+            "not a calibration file",
+        ),
+        (
+            "cam0:\n  camera_model: pinhole\n  intrinsics: [1, 2, 3]\n".to_string(),
+            "cam0.intrinsics",
+        ),
+        ("a: 1\n".to_string(), "not a calibration file"),
+    ];
+    for (text, expected) in cases {
+        let err = parse_calibration(&text, "bad.yaml").unwrap_err();
+        let message = err.to_string();
+        assert!(
+            message.contains("bad.yaml") && message.contains(expected),
+            "{message} (expected '{expected}')"
+        );
+    }
+    // A zero focal length and a non-finite coefficient are refused on export.
+    let mut c = camera(CameraModel::BrownConrady4, "c", 0.0);
+    c.camera.intrinsics.fx = 0.0;
+    assert!(matches!(
+        export_texts(
+            &Calibrated::Single(c),
+            Format::OpenCv,
+            &ExportOptions::default()
+        ),
+        Err(ExportError::Invalid { .. })
+    ));
+    let mut c = camera(CameraModel::BrownConrady4, "c", 0.0);
+    c.camera.distortion[1] = f64::NAN;
+    assert!(
+        export_texts(
+            &Calibrated::Single(c),
+            Format::Kalibr,
+            &ExportOptions::default()
+        )
+        .is_err()
+    );
+}
+
+#[test]
+fn result_json_files_are_read_like_exports() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/sourishg1/left.json");
+    let obs = <calib_single::Observations as calib_core::JsonFile>::read(&path).unwrap();
+    let result =
+        calib_single::calibrate(&obs, &calib_single::CalibrationOptions::default()).unwrap();
+    let text = serde_json::to_string(&result.to_json()).unwrap();
+    let Calibrated::Single(c) = parse_calibration(&text, "left-result.json").unwrap() else {
+        panic!()
+    };
+    assert_eq!(c.camera, result.camera);
+    assert_eq!(c.image_size, result.image_size);
+}

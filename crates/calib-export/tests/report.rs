@@ -1,0 +1,335 @@
+//! The report: every image the page references exists and is well-formed SVG; the covariance
+//! behind the uncertainty map agrees with the calibration's own standard deviations.
+
+use calib_core::JsonFile;
+use calib_export::covariance::{CovarianceView, intrinsics_covariance};
+use calib_export::{ReportInput, write_report};
+
+fn data(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/sourishg1")
+        .join(name)
+}
+
+/// A minimal XML well-formedness check: tags nest and close, attributes are quoted, the root is
+/// `<svg>`. (Headless Chromium rendering: docs/after-calibration.md, `benches/after/render.sh`.)
+fn well_formed_svg(text: &str) -> Result<(), String> {
+    let body = text.trim_start();
+    let body = match body.strip_prefix("<?xml") {
+        Some(rest) => &rest[rest.find("?>").ok_or("unterminated declaration")? + 2..],
+        None => body,
+    };
+    let mut stack: Vec<String> = Vec::new();
+    let mut rest = body;
+    let mut saw_root = false;
+    while let Some(start) = rest.find('<') {
+        let end = rest[start..].find('>').ok_or("unterminated tag")? + start;
+        let tag = &rest[start + 1..end];
+        if tag.starts_with("!--") || tag.starts_with('?') || tag.starts_with('!') {
+        } else if let Some(name) = tag.strip_prefix('/') {
+            let open = stack
+                .pop()
+                .ok_or(format!("</{name}> without opening tag"))?;
+            if open != name.trim() {
+                return Err(format!("<{open}> closed by </{name}>"));
+            }
+        } else {
+            let name = tag
+                .split_whitespace()
+                .next()
+                .unwrap_or("")
+                .trim_end_matches('/')
+                .to_string();
+            if !saw_root {
+                if name != "svg" {
+                    return Err(format!("root element <{name}>"));
+                }
+                saw_root = true;
+            }
+            if tag.matches('"').count() % 2 != 0 {
+                return Err(format!("unbalanced quotes in <{tag}>"));
+            }
+            if !tag.ends_with('/') {
+                stack.push(name);
+            }
+        }
+        rest = &rest[end + 1..];
+    }
+    if !saw_root || !stack.is_empty() {
+        return Err(format!("unclosed elements {stack:?}"));
+    }
+    Ok(())
+}
+
+fn check_report(dir: &std::path::Path, expected_images: usize) {
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let sources: Vec<&str> = page
+        .split("<img src=\"")
+        .skip(1)
+        .map(|s| &s[..s.find('"').unwrap()])
+        .collect();
+    assert_eq!(sources.len(), expected_images, "{sources:?}");
+    for src in sources {
+        let text = std::fs::read_to_string(dir.join(src)).unwrap_or_else(|e| panic!("{src}: {e}"));
+        well_formed_svg(&text).unwrap_or_else(|e| panic!("{src}: {e}"));
+        assert!(
+            !text.contains("NaN") && !text.contains("inf\""),
+            "{src} has non-finite coordinates"
+        );
+    }
+}
+
+#[test]
+fn single_and_stereo_reports_reference_existing_well_formed_svgs() {
+    let dir = std::env::temp_dir().join(format!("calib-export-report-{}", std::process::id()));
+    let obs = calib_single::Observations::read(data("left.json")).unwrap();
+    let result =
+        calib_single::calibrate(&obs, &calib_single::CalibrationOptions::default()).unwrap();
+    write_report(
+        &ReportInput::single(&result, Some(&obs)).unwrap(),
+        &dir.join("single"),
+    )
+    .unwrap();
+    check_report(&dir.join("single"), 7);
+    // Without observations: the four plots that need none.
+    write_report(
+        &ReportInput::single(&result, None).unwrap(),
+        &dir.join("bare"),
+    )
+    .unwrap();
+    check_report(&dir.join("bare"), 3);
+    let stereo = calib_stereo::StereoObservations::read(data("stereo.json")).unwrap();
+    let rig =
+        calib_stereo::calibrate_stereo(&stereo, &calib_stereo::StereoOptions::default()).unwrap();
+    write_report(
+        &ReportInput::stereo(&rig, Some(&stereo)).unwrap(),
+        &dir.join("stereo"),
+    )
+    .unwrap();
+    check_report(&dir.join("stereo"), 14);
+    // A result with the wrong observation file is refused.
+    assert!(
+        ReportInput::stereo(
+            &rig,
+            Some(&calib_stereo::StereoObservations {
+                image_size: None,
+                right_image_size: None,
+                pairs: Vec::new()
+            })
+        )
+        .is_err()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The report's covariance (numerical Jacobians, Schur complement) against the calibration's own
+/// (analytic Jacobians, lm-solver's covariance): the standard deviations of fx, fy, cx, cy and
+/// the distortion agree to 1% (differences: finite differences ~1e-6, the parameterization of
+/// the poses, which does not change the marginal covariance of the intrinsics).
+#[test]
+fn covariance_matches_the_calibrations_standard_deviations() {
+    let obs = calib_single::Observations::read(data("left.json")).unwrap();
+    let result =
+        calib_single::calibrate(&obs, &calib_single::CalibrationOptions::default()).unwrap();
+    let views: Vec<CovarianceView> = result
+        .views
+        .iter()
+        .map(|v| {
+            let view = &obs.views[v.index];
+            let keep: Vec<usize> = (0..view.object_points.len())
+                .filter(|i| !v.rejected_points.contains(i))
+                .collect();
+            CovarianceView {
+                pose: v.pose,
+                object: keep.iter().map(|&i| view.object_points[i]).collect(),
+                pixels: keep.iter().map(|&i| view.image_points[i].coords).collect(),
+            }
+        })
+        .collect();
+    let c = intrinsics_covariance(&result.camera, &views, &[]).unwrap();
+    let reported: Vec<f64> = result
+        .intrinsics_std
+        .iter()
+        .chain(&result.distortion_std)
+        .copied()
+        .collect();
+    for (i, s) in reported.iter().enumerate() {
+        let ours = c[(i, i)].sqrt();
+        assert!((ours - s).abs() < 0.01 * s, "parameter {i}: {ours} vs {s}");
+    }
+}
+
+/// The projection uncertainty against Monte Carlo: the same synthetic views with fresh pixel
+/// noise, calibrated again and again; where each solution projects a point fixed relative to
+/// the boards (mrcal's mean over the boards' frames) spreads as `Uncertainty::projection`
+/// predicts, at the boards' distance and at infinity, at the centre and near a corner.
+#[test]
+fn projection_uncertainty_matches_monte_carlo() {
+    use calib_core::lm_solver::Rng;
+    use calib_export::covariance::Uncertainty;
+    use camera_model::UndistortOptions;
+    use nalgebra::{Matrix2, Vector2, Vector3};
+    let noise = 0.3;
+    let config = calib_single::synthetic::SyntheticConfig {
+        views: 8,
+        noise_px: 0.0,
+        seed: 7,
+        ..Default::default()
+    };
+    let truth = calib_single::synthetic::generate(&config).unwrap();
+    let options = calib_single::CalibrationOptions::default();
+    let trials = 60;
+    let pixels = [Vector2::new(319.5, 239.5), Vector2::new(40.0, 40.0)];
+    // The boards' median distance.
+    let mut distances: Vec<f64> = truth.poses.iter().map(|p| p.translation.norm()).collect();
+    distances.sort_by(f64::total_cmp);
+    let d = distances[distances.len() / 2];
+    let distances = [Some(d), None];
+    let points: Vec<Vec<Vector3<f64>>> = pixels
+        .iter()
+        .map(|q| {
+            let ray = truth
+                .camera
+                .pixel_to_ray(q, &UndistortOptions::default())
+                .unwrap()
+                .into_inner();
+            distances
+                .iter()
+                .map(|d| d.map_or(ray, |d| ray * d))
+                .collect()
+        })
+        .collect();
+    let mut samples = vec![vec![Vec::new(); distances.len()]; pixels.len()];
+    let mut predicted = None;
+    let mut rng = Rng::new(11);
+    for trial in 0..trials {
+        let mut obs = truth.observations.clone();
+        for view in &mut obs.views {
+            view.image_points = calib_core::synthetic::add_noise(
+                std::mem::take(&mut view.image_points),
+                noise,
+                &mut rng,
+            );
+        }
+        let result = calib_single::calibrate(&obs, &options).unwrap();
+        assert_eq!(result.views.len(), truth.poses.len());
+        if trial == 0 {
+            let views: Vec<CovarianceView> = result
+                .views
+                .iter()
+                .map(|v| CovarianceView {
+                    pose: v.pose,
+                    object: obs.views[v.index].object_points.clone(),
+                    pixels: obs.views[v.index]
+                        .image_points
+                        .iter()
+                        .map(|p| p.coords)
+                        .collect(),
+                })
+                .collect();
+            predicted = Some(Uncertainty::new(&result.camera, &views, &[]).unwrap());
+        }
+        for (a, per_pixel) in points.iter().enumerate() {
+            for (b, p) in per_pixel.iter().enumerate() {
+                // mean_i T_i' T_i^-1 p, projected by the solution's camera.
+                let mut mean = Vector3::zeros();
+                for v in &result.views {
+                    let t = &truth.poses[v.index];
+                    let x = match distances[b] {
+                        Some(_) => t.rotation.transpose() * (p - t.translation),
+                        None => t.rotation.transpose() * p,
+                    };
+                    mean += match distances[b] {
+                        Some(_) => v.pose.rotation * x + v.pose.translation,
+                        None => v.pose.rotation * x,
+                    };
+                }
+                mean /= result.views.len() as f64;
+                samples[a][b].push(result.camera.project_camera_point(&mean).unwrap());
+            }
+        }
+    }
+    let predicted = predicted.unwrap();
+    // The prediction used trial 0's noise estimate; scale it to the true noise.
+    let scale = (noise / predicted.sigma()).powi(2);
+    for (a, q) in pixels.iter().enumerate() {
+        for (b, d) in distances.iter().enumerate() {
+            let s = &samples[a][b];
+            let mean: Vector2<f64> = s.iter().sum::<Vector2<f64>>() / s.len() as f64;
+            let empirical = s
+                .iter()
+                .map(|x| (x - mean) * (x - mean).transpose())
+                .sum::<Matrix2<f64>>()
+                / (s.len() - 1) as f64;
+            let c = predicted.projection(q, *d).unwrap() * scale;
+            let ratio = (empirical.trace() / c.trace()).sqrt();
+            println!(
+                "pixel {q:?} distance {d:?}: predicted {:.4} px, Monte Carlo {:.4} px (ratio {ratio:.3})",
+                c.trace().sqrt(),
+                empirical.trace().sqrt()
+            );
+            assert!((0.75..1.33).contains(&ratio), "ratio {ratio}");
+        }
+    }
+}
+
+/// The distortion field shows the validity radius of camera_model's check: a lens model that
+/// folds over inside the image gets a red circle and a caption naming the radius; a valid one
+/// says it is one-to-one over the image.
+#[test]
+fn distortion_plot_shows_the_validity_radius() {
+    use calib_export::report::{ReportCamera, ReportView};
+    use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
+    let dir = std::env::temp_dir().join(format!("calib-export-validity-{}", std::process::id()));
+    let report = |k1: f64, name: &str| {
+        let camera = AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+            vec![k1, 0.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let validity = camera.validity(640, 480);
+        let input = ReportInput {
+            title: "validity".into(),
+            summary: String::new(),
+            cameras: vec![ReportCamera {
+                name: "camera".into(),
+                camera,
+                image_size: calib_core::ImageSize::new(640, 480),
+                fixed: Vec::new(),
+                views: vec![ReportView {
+                    name: "view".into(),
+                    pose: Pose::new(
+                        nalgebra::Matrix3::identity(),
+                        nalgebra::Vector3::new(0.0, 0.0, 500.0),
+                    ),
+                    rms: 0.1,
+                    points: None,
+                    rejected: Vec::new(),
+                }],
+            }],
+        };
+        write_report(&input, &dir.join(name)).unwrap();
+        let page = std::fs::read_to_string(dir.join(name).join("index.html")).unwrap();
+        let svg = std::fs::read_to_string(dir.join(name).join("distortion-camera.svg")).unwrap();
+        well_formed_svg(&svg).unwrap();
+        (validity, page, svg)
+    };
+    // 1 + 3 k1 r^2 = 0 at r = 0.745 (373 px): the corners (400 px) are beyond the fold.
+    let (validity, page, svg) = report(-0.6, "folding");
+    assert!(!validity.covers_image(0.0), "{validity:?}");
+    let radius = format!(
+        "{:.0} px from the principal point",
+        validity.valid_radius_px
+    );
+    assert!(
+        page.contains("stops being one-to-one") && page.contains(&radius),
+        "{page}"
+    );
+    assert!(svg.contains("#FF0000"), "no red circle");
+    let (validity, page, svg) = report(-0.2, "valid");
+    assert!(validity.covers_image(0.0), "{validity:?}");
+    assert!(page.contains("one-to-one over the whole image"));
+    assert!(!svg.contains("#FF0000"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
