@@ -2,7 +2,7 @@
 
 use crate::Failure;
 use crate::run::{OutputArgs, calibrate_and_report};
-use crate::single::{CameraArgs, looks_like_image};
+use crate::single::{CameraArgs, looks_like_image, split_named};
 use calib_core::JsonFile;
 use calib_rig::{RigObservations, RigOptions, calibrate_rig};
 use camera_model::RotationKind;
@@ -17,7 +17,9 @@ pub struct RigArgs {
     pub input: String,
     #[command(flatten)]
     pub output: OutputArgs,
-    /// Options for every camera (a camera's "model" in the file overrides --model).
+    /// Options for every camera. Per camera: --model NAME=MODEL (over the file's "model", which
+    /// is over a plain --model MODEL) and --intrinsics NAME=FILE (a calib result or an exported
+    /// OpenCV, ROS or Kalibr file: that camera's intrinsics and distortion, held fixed).
     #[command(flatten)]
     pub camera: CameraArgs,
     /// The reference camera (by name): the rig's frame is its frame. Default: the first camera.
@@ -54,7 +56,46 @@ pub fn camera_index(
 impl RigArgs {
     /// The library options for `observations`.
     pub fn options(&self, observations: &RigObservations) -> Result<RigOptions, Failure> {
-        let camera = self.camera.options()?;
+        let n = observations.cameras.len();
+        let (plain, named) = split_named(&self.camera.model);
+        if plain.len() > 1 {
+            return Err(Failure(format!(
+                "--model given {} times without a camera name (per camera: --model NAME=MODEL)",
+                plain.len()
+            )));
+        }
+        let camera = self.camera.options_for(plain.first().copied())?;
+        let mut models = vec![None; n];
+        for (name, model) in named {
+            let c = camera_index(observations, name, "--model")?;
+            models[c] = Some(
+                model
+                    .parse()
+                    .map_err(|e| Failure(format!("--model {name}={model}: {e}")))?,
+            );
+        }
+        let (plain, named) = split_named(&self.camera.intrinsics);
+        if let Some(path) = plain.first() {
+            return Err(Failure(format!(
+                "--intrinsics {path}: calib rig takes one file per camera, --intrinsics NAME={path}"
+            )));
+        }
+        let mut given = vec![None; n];
+        for (name, path) in named {
+            let c = camera_index(observations, name, "--intrinsics")?;
+            let what = format!("--intrinsics {name}={path}");
+            let file = crate::after::read_single_camera(path, &what)?;
+            crate::after::check_image_size(&file, Some(observations.cameras[c].image_size), &what)?;
+            if let Some(model) = models[c]
+                && model != file.camera.model
+            {
+                return Err(Failure(format!(
+                    "{what}: the file's camera is {}, but --model {name}={model}",
+                    file.camera.model
+                )));
+            }
+            given[c] = Some(file.camera);
+        }
         let mut options = RigOptions::default();
         options.solver = camera.solver.clone();
         // Euler angles are singular where a camera turns 90 degrees about y from the
@@ -67,6 +108,8 @@ impl RigArgs {
         options.outliers = camera.outliers;
         options.loss = camera.loss;
         options.min_views = self.min_views.max(1);
+        options.models = models;
+        options.given = given;
         options.camera = camera;
         if let Some(name) = &self.reference {
             options.reference = camera_index(observations, name, "--reference")?;
@@ -76,13 +119,11 @@ impl RigArgs {
 }
 
 pub fn run(args: &RigArgs) -> Result<(), Failure> {
-    // Exports and starting from files cover single cameras and stereo rigs so far; where rigs
-    // plug in: docs/after-calibration.md ("Rigs").
+    // Exports and reports cover single cameras and stereo rigs so far; where rigs plug in:
+    // docs/after-calibration.md ("Rigs").
     for (given, option) in [
         (!args.output.export.is_empty(), "--export"),
         (args.output.report.is_some(), "--report"),
-        (args.camera.intrinsics.is_some(), "--intrinsics"),
-        (args.camera.fix_intrinsics, "--fix-intrinsics"),
     ] {
         if given {
             return Err(Failure(format!(

@@ -17,15 +17,16 @@ pub struct CameraArgs {
     /// Lens model: brown-conrady4 (k1 k2 p1 p2), brown-conrady5 (+k3, OpenCV's default),
     /// rational8, thin-prism12, kannala-brandt4 (fisheye). Also accepted: plumb_bob,
     /// rational_polynomial, equidistant.
-    /// [default: brown-conrady4, or the model of --intrinsics]
+    /// [default: brown-conrady4, or the model of --intrinsics]. calib rig also takes
+    /// NAME=MODEL for one camera (repeatable).
     #[arg(long, value_name = "MODEL")]
-    pub model: Option<String>,
+    pub model: Vec<String>,
     /// Start from the camera in FILE: a calib result (JSON) or an exported OpenCV, ROS or Kalibr
     /// file (its model, intrinsics and distortion; the image size must match). calib stereo
     /// takes a rig's file here, and single cameras' files with --left-intrinsics and
-    /// --right-intrinsics.
+    /// --right-intrinsics. calib rig takes NAME=FILE per camera (repeatable).
     #[arg(long, value_name = "FILE")]
-    pub intrinsics: Option<String>,
+    pub intrinsics: Vec<String>,
     /// Hold the intrinsics and distortion of --intrinsics (or --left/--right-intrinsics) fixed:
     /// only the poses (and a stereo rig's R, T) are estimated.
     #[arg(long)]
@@ -120,12 +121,55 @@ pub enum Damping {
     Hybrid,
 }
 
+/// The one plain value of a repeatable option (`None` if absent); `NAME=VALUE` forms are for
+/// calib rig's cameras and refused here, as is a second plain value.
+pub fn single_value<'a>(values: &'a [String], option: &str) -> Result<Option<&'a str>, Failure> {
+    let (plain, named) = split_named(values);
+    if let Some((name, _)) = named.first() {
+        return Err(Failure(format!(
+            "{option} {name}=...: a value per camera name is for calib rig; give one {option}"
+        )));
+    }
+    match plain.as_slice() {
+        [] => Ok(None),
+        [one] => Ok(Some(one)),
+        _ => Err(Failure(format!("{option} given {} times", plain.len()))),
+    }
+}
+
+/// Splits a repeatable option's values into plain ones and `NAME=VALUE` pairs.
+pub fn split_named(values: &[String]) -> (Vec<&str>, Vec<(&str, &str)>) {
+    let mut plain = Vec::new();
+    let mut named = Vec::new();
+    for v in values {
+        match v.split_once('=') {
+            Some((name, value)) => named.push((name.trim(), value.trim())),
+            None => plain.push(v.as_str()),
+        }
+    }
+    (plain, named)
+}
+
 impl CameraArgs {
+    /// The `--model` value (one, without a camera name).
+    pub fn model_name(&self) -> Result<Option<&str>, Failure> {
+        single_value(&self.model, "--model")
+    }
+
+    /// The `--intrinsics` file (one, without a camera name).
+    pub fn intrinsics_file(&self) -> Result<Option<&str>, Failure> {
+        single_value(&self.intrinsics, "--intrinsics")
+    }
+
     /// The library options these arguments describe.
     pub fn options(&self) -> Result<CalibrationOptions, Failure> {
-        let model: CameraModel = self
-            .model
-            .as_deref()
+        self.options_for(self.model_name()?)
+    }
+
+    /// The library options with the lens model `model` (default brown-conrady4) instead of
+    /// `--model`'s.
+    pub fn options_for(&self, model: Option<&str>) -> Result<CalibrationOptions, Failure> {
+        let model: CameraModel = model
             .unwrap_or("brown-conrady4")
             .parse()
             .map_err(|e| Failure(format!("--model: {e}")))?;
@@ -263,14 +307,14 @@ pub fn looks_like_image(path: &str) -> bool {
 
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     let mut options = args.camera.options()?;
-    if args.camera.fix_intrinsics && args.camera.intrinsics.is_none() {
+    if args.camera.fix_intrinsics && args.camera.intrinsics_file()?.is_none() {
         return Err(Failure(
             "--fix-intrinsics: give the intrinsics with --intrinsics FILE".into(),
         ));
     }
     let (observations, source) = observations(args)?;
     if args.compare_models {
-        if args.camera.intrinsics.is_some() {
+        if !args.camera.intrinsics.is_empty() {
             return Err(Failure(
                 "--compare-models fits every model from its own start; it does not take --intrinsics"
                     .into(),
@@ -292,7 +336,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         }
         return Ok(());
     }
-    if let Some(path) = &args.camera.intrinsics {
+    if let Some(path) = args.camera.intrinsics_file()? {
         let camera = crate::after::read_single_camera(path, "--intrinsics")?;
         crate::after::check_image_size(
             &camera,
@@ -302,7 +346,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         crate::after::apply_camera_file(
             &mut options,
             &camera,
-            args.camera.model.is_some(),
+            !args.camera.model.is_empty(),
             args.camera.fix_intrinsics,
             &format!("--intrinsics {path}"),
         )?;

@@ -194,7 +194,7 @@ fn camera_files(
     args: &StereoArgs,
 ) -> Result<[Option<(calib_export::CameraCalibration, String)>; 2], Failure> {
     let mut cameras = [None, None];
-    if let Some(path) = &args.camera.intrinsics {
+    if let Some(path) = args.camera.intrinsics_file()? {
         if args.left_intrinsics.is_some() || args.right_intrinsics.is_some() {
             return Err(Failure(
                 "--intrinsics (a rig) and --left-intrinsics/--right-intrinsics exclude each other"
@@ -257,7 +257,7 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
             };
             // An explicit model for this camera: --model, or --right-model for the right one.
             let explicit_model =
-                args.camera.model.is_some() || (k == 1 && args.right_model.is_some());
+                !args.camera.model.is_empty() || (k == 1 && args.right_model.is_some());
             crate::after::apply_camera_file(
                 side,
                 camera,

@@ -155,3 +155,102 @@ fn reference_and_errors_name_cameras() {
         "{err}"
     );
 }
+
+#[test]
+fn per_camera_models_and_given_intrinsics() {
+    let input = temp("rig-given.json");
+    run_ok(
+        calib()
+            .args([
+                "synth",
+                "rig",
+                "--cameras",
+                "3",
+                "--views",
+                "36",
+                "--layout",
+                "line",
+                "-o",
+            ])
+            .arg(&input),
+    );
+    // cam2 calibrated alone from its own views, as a user would first.
+    let file = read(&input);
+    let views: Vec<Value> = file["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|f| {
+            let o = f["observations"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|o| o["camera"] == 2)?;
+            Some(serde_json::json!({
+                "object_points": f["object_points"].clone(),
+                "image_points": o["image_points"].clone(),
+            }))
+        })
+        .collect();
+    let single = temp("cam2-views.json");
+    std::fs::write(
+        &single,
+        serde_json::json!({"image_size": file["cameras"][2]["image_size"].clone(), "views": views})
+            .to_string(),
+    )
+    .unwrap();
+    let cam2 = temp("cam2-result.json");
+    run_ok(
+        calib()
+            .arg("single")
+            .arg(&single)
+            .arg("-q")
+            .arg("-o")
+            .arg(&cam2),
+    );
+
+    let out = temp("rig-given-result.json");
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&input)
+            .args(["--model", "cam1=brown-conrady5", "--intrinsics"])
+            .arg(format!("cam2={}", cam2.display()))
+            .args(["-q", "-o"])
+            .arg(&out),
+    );
+    let result = read(&out);
+    assert_eq!(result["cameras"][0]["model"], "brown-conrady4");
+    assert_eq!(result["cameras"][1]["model"], "brown-conrady5");
+    assert_eq!(result["cameras"][2]["initial_method"], "given");
+    assert_eq!(
+        result["cameras"][2]["camera_matrix"],
+        read(&cam2)["camera"]["camera_matrix"]
+    );
+
+    for (args, expected) in [
+        (
+            vec!["--model", "cam7=brown-conrady5"],
+            "no camera named 'cam7'",
+        ),
+        (vec!["--model", "cam1=pinhole9"], "--model cam1=pinhole9"),
+        (
+            vec!["--intrinsics", "result.json"],
+            "--intrinsics NAME=result.json",
+        ),
+    ] {
+        let run = calib().arg("rig").arg(&input).args(&args).output().unwrap();
+        assert_eq!(run.status.code(), Some(1));
+        let err = String::from_utf8(run.stderr).unwrap();
+        assert!(err.contains(expected), "{args:?}: {err}");
+    }
+    // A per-camera value is refused where it has no meaning.
+    let run = calib()
+        .arg("single")
+        .arg(&single)
+        .args(["--model", "cam1=brown-conrady5"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8(run.stderr).unwrap().contains("calib rig"));
+}
