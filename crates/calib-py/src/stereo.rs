@@ -25,10 +25,11 @@ use pyo3::types::{PyList, PyTuple};
 ///
 /// ``K1``, ``D1``, ``K2``, ``D2``: starting camera matrices and coefficients (``None``: each
 /// camera is first calibrated alone). ``fix_intrinsics`` holds both cameras' intrinsics and
-/// coefficients at their start (cv2's ``CALIB_FIX_INTRINSIC``); ``fix_intrinsics1`` /
-/// ``fix_intrinsics2`` hold one. ``model`` / ``model2``, ``fix`` / ``fix2`` as in
-/// :func:`calibrate_camera` (the second camera defaults to the first's). ``same_focal_length``:
-/// both cameras share fx, fy. ``R``, ``T``: a starting rig (rotation matrix or vector).
+/// coefficients (cv2's ``CALIB_FIX_INTRINSIC``): at ``K``/``D`` when given, else at the camera's
+/// own calibration; ``fix_intrinsics1`` / ``fix_intrinsics2`` hold one. ``model`` / ``model2``,
+/// ``fix`` / ``fix2`` as in :func:`calibrate_camera` (the second camera defaults to the
+/// first's). ``same_focal_length``: both cameras share fx, fy. ``R``, ``T``: a starting rig
+/// (rotation matrix or vector).
 ///
 /// Returns a :class:`StereoCalibration`, which unpacks as
 /// ``rms, K1, D1, K2, D2, R, T, E, F``. Raises :class:`CalibrationError` naming the pair and
@@ -93,8 +94,21 @@ fn stereo_calibrate(
         Some(f) => options::fix_names(Some(f), "fix2")?,
         None => fix1.clone(),
     };
-    let left = options::camera_options(model1, &fix1, K1, D1, &common, "1")?;
-    let right = options::camera_options(model2, &fix2, K2, D2, &common, "2")?;
+    let mut left = options::camera_options(model1, &fix1, K1, D1, &common, "1")?;
+    let mut right = options::camera_options(model2, &fix2, K2, D2, &common, "2")?;
+    // cv2's CALIB_FIX_INTRINSIC with a given camera matrix holds exactly that camera (and the
+    // given coefficients, zero if none): hold them in the single-camera stage too. Without a
+    // camera matrix the camera is held at its single-camera estimate.
+    let hold_given =
+        |o: &mut calib_core::CalibrationOptions, fixed: bool, k: Option<&Bound<'_, PyAny>>| {
+            if fixed && k.is_some_and(|k| !k.is_none()) {
+                o.fix_focal_length = true;
+                o.fix_principal_point = true;
+                o.fixed_distortion = (0..o.model.num_distortion_params()).collect();
+            }
+        };
+    hold_given(&mut left, fix_intrinsics || fix_intrinsics1, K1);
+    hold_given(&mut right, fix_intrinsics || fix_intrinsics2, K2);
     let mut opts = StereoOptions::default();
     opts.solver = left.solver.clone();
     opts.rotation = common.rotation(RotationKind::EulerXyz)?;
