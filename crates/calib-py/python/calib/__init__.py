@@ -1,0 +1,44 @@
+"""Camera calibration from NumPy arrays, shaped like OpenCV's functions.
+
+Single cameras (:func:`calibrate_camera`), stereo pairs (:func:`stereo_calibrate`), rigs of N
+cameras (:func:`calibrate_rig`), chessboard detection (:func:`detect_chessboard`) and
+undistortion (:func:`undistort_points`). The work is done by the project's Rust crates (the
+extension module ``calib._calib``) with the GIL released; failures raise
+:class:`CalibrationError` with the Rust message. See docs/python.md.
+
+    rms, K, dist, rvecs, tvecs = calib.calibrate_camera(object_points, image_points, (w, h))
+"""
+
+from ._calib import (
+    MODELS,
+    CalibrationError,
+    CalibrationWarning,
+    CameraCalibration,
+    RigCalibration,
+    StereoCalibration,
+    __version__,
+    board_points,
+    calibrate_camera,
+    calibrate_rig,
+    detect_chessboard,
+    imread_gray,
+    stereo_calibrate,
+    undistort_points,
+)
+
+__all__ = [
+    "MODELS",
+    "CalibrationError",
+    "CalibrationWarning",
+    "CameraCalibration",
+    "RigCalibration",
+    "StereoCalibration",
+    "__version__",
+    "board_points",
+    "calibrate_camera",
+    "calibrate_rig",
+    "detect_chessboard",
+    "imread_gray",
+    "stereo_calibrate",
+    "undistort_points",
+]

@@ -1,0 +1,366 @@
+"""Type stubs of the package `calib` (the extension module calib._calib). See docs/python.md."""
+
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from os import PathLike
+from typing import Any, Literal, Optional, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ModelName = Literal[
+    "brown-conrady4",
+    "brown-conrady5",
+    "rational8",
+    "thin-prism12",
+    "kannala-brandt4",
+    "plumb_bob",
+    "rational_polynomial",
+    "equidistant",
+    "fisheye",
+]
+"""Lens model names (the last four are other tools' names for brown-conrady5, rational8 and
+kannala-brandt4)."""
+
+FixName = str
+"""A name for ``fix``: "principal_point", "focal_length", "aspect_ratio", "tangential", or a
+coefficient of the model ("k1", "k2", "p1", "p2", "k3", ... as in ``MODELS``)."""
+
+Points = npt.ArrayLike
+"""An (N, 2) / (N, 3) array of float32 or float64, or cv2's (N, 1, 2) / (N, 1, 3)."""
+
+ImageSize = Sequence[int]
+"""(width, height) in pixels."""
+
+Rotation = Literal["euler", "euler-xyz", "axis-angle", "rodrigues", "so3"]
+Loss = Optional[Literal["huber", "cauchy"]]
+
+MODELS: dict[str, list[str]]
+"""Every lens model and the names of its coefficients, in OpenCV's order."""
+
+class CalibrationError(Exception):
+    """A calibration (or detection, or file) failed; the message is the Rust crate's, naming the
+    view (pair, frame, camera) and point at fault."""
+
+class CalibrationWarning:
+    """Something in a result that deserves attention."""
+
+    @property
+    def code(self) -> str:
+        """Stable code, e.g. "poorly-determined", "outliers-rejected", "duplicate-views"."""
+    @property
+    def message(self) -> str:
+        """What happened and what to do."""
+
+class CameraCalibration:
+    """Result of :func:`calibrate_camera`; unpacks as ``rms, K, dist, rvecs, tvecs``."""
+
+    @property
+    def rms(self) -> float:
+        """RMS reprojection error of the used points, pixels."""
+    @property
+    def K(self) -> npt.NDArray[np.float64]:
+        """Camera matrix, (3, 3)."""
+    @property
+    def dist(self) -> npt.NDArray[np.float64]:
+        """Distortion coefficients in OpenCV's order, (1, N)."""
+    @property
+    def rvecs(self) -> list[npt.NDArray[np.float64]]:
+        """Rodrigues rotation (board to camera) of each used view, (3, 1) each."""
+    @property
+    def tvecs(self) -> list[npt.NDArray[np.float64]]:
+        """Translation (board to camera) of each used view, (3, 1) each."""
+    @property
+    def std(self) -> npt.NDArray[np.float64]:
+        """Standard deviations of ``param_names``, (4 + N,); zero for fixed parameters."""
+    @property
+    def param_names(self) -> list[str]:
+        """fx, fy, cx, cy and the model's coefficient names."""
+    @property
+    def fixed_parameters(self) -> list[str]: ...
+    @property
+    def pose_std(self) -> npt.NDArray[np.float64]:
+        """Standard deviations of each used view's pose parameters (``rotation``
+        parameterization, then translation), (views, 6)."""
+    @property
+    def per_view_rms(self) -> npt.NDArray[np.float64]:
+        """RMS of each used view, pixels, (views,)."""
+    @property
+    def view_indices(self) -> list[int]:
+        """Input index of each used view (rvecs, tvecs, per_view_rms follow it)."""
+    @property
+    def skipped_views(self) -> list[tuple[int, str]]:
+        """(input index, reason) of views left out by ``skip_bad_views``."""
+    @property
+    def rejected_points(self) -> list[list[int]]:
+        """Per used view, the indices of points rejected as outliers."""
+    @property
+    def rms_all_points(self) -> float: ...
+    @property
+    def num_points(self) -> int: ...
+    @property
+    def model(self) -> str: ...
+    @property
+    def image_size(self) -> tuple[int, int]: ...
+    @property
+    def rotation(self) -> str: ...
+    @property
+    def warnings(self) -> list[CalibrationWarning]: ...
+    @property
+    def report(self) -> dict[str, Any]:
+        """The Levenberg-Marquardt report (termination, converged, iterations, costs, times)."""
+    @property
+    def elapsed(self) -> float:
+        """Wall time of the calibration, seconds."""
+    def summary(self) -> str:
+        """Every parameter with +- 3 sigma, the RMS, the worst views, the warnings."""
+    def to_json(self) -> str:
+        """The calib-single-result JSON of docs/formats.md (what ``calib single -o`` writes)."""
+    def __len__(self) -> int: ...
+    def __getitem__(self, index: int) -> Any: ...
+    def __iter__(self) -> Iterator[Any]: ...
+
+class StereoCalibration:
+    """Result of :func:`stereo_calibrate`; unpacks as ``rms, K1, D1, K2, D2, R, T, E, F``."""
+
+    @property
+    def rms(self) -> float: ...
+    @property
+    def K1(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def D1(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def K2(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def D2(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def R(self) -> npt.NDArray[np.float64]:
+        """Rotation from camera 1 to camera 2 (``X2 = R X1 + T``), (3, 3)."""
+    @property
+    def T(self) -> npt.NDArray[np.float64]:
+        """Translation from camera 1 to camera 2, (3, 1)."""
+    @property
+    def E(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def F(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def std1(self) -> npt.NDArray[np.float64]:
+        """Standard deviations of camera 1's fx, fy, cx, cy and coefficients."""
+    @property
+    def std2(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def rig_params(self) -> npt.NDArray[np.float64]:
+        """[rotation (``rotation`` parameterization), T], (6,)."""
+    @property
+    def rig_std(self) -> npt.NDArray[np.float64]:
+        """Standard deviations of ``rig_params``, (6,)."""
+    @property
+    def baseline(self) -> float: ...
+    @property
+    def rotation(self) -> str: ...
+    @property
+    def rvecs(self) -> list[npt.NDArray[np.float64]]:
+        """Board-to-camera-1 rotations (Rodrigues) of the used pairs."""
+    @property
+    def tvecs(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def per_view_rms(self) -> npt.NDArray[np.float64]:
+        """RMS of each used pair's two views, (pairs, 2)."""
+    @property
+    def pair_indices(self) -> list[int]: ...
+    @property
+    def skipped_pairs(self) -> list[tuple[int, str]]: ...
+    @property
+    def models(self) -> tuple[str, str]: ...
+    @property
+    def num_rejected(self) -> int: ...
+    @property
+    def warnings(self) -> list[CalibrationWarning]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    @property
+    def elapsed(self) -> float: ...
+    def summary(self) -> str: ...
+    def to_json(self) -> str:
+        """The calib-stereo-result JSON (what ``calib stereo -o`` writes)."""
+    def __len__(self) -> int: ...
+    def __getitem__(self, index: int) -> Any: ...
+    def __iter__(self) -> Iterator[Any]: ...
+
+class RigCalibration:
+    """Result of :func:`calibrate_rig`; unpacks as ``rms, Ks, dists, Rs, Ts`` with
+    ``X_cam = R X_ref + T``."""
+
+    @property
+    def rms(self) -> float: ...
+    @property
+    def names(self) -> list[str]: ...
+    @property
+    def models(self) -> list[str]: ...
+    @property
+    def reference(self) -> int: ...
+    @property
+    def Ks(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def dists(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def Rs(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def Ts(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def std(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def transform_std(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def camera_rms(self) -> list[float]: ...
+    @property
+    def rvecs(self) -> list[npt.NDArray[np.float64]]:
+        """Board-to-reference-camera rotations (Rodrigues) of the used frames."""
+    @property
+    def tvecs(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def frame_indices(self) -> list[int]: ...
+    @property
+    def per_view_rms(self) -> list[dict[int, float]]:
+        """Per used frame, {camera index: RMS}."""
+    @property
+    def tree_parent(self) -> list[Optional[int]]: ...
+    @property
+    def rotation(self) -> str: ...
+    @property
+    def num_rejected(self) -> int: ...
+    @property
+    def warnings(self) -> list[CalibrationWarning]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    @property
+    def elapsed(self) -> float: ...
+    def summary(self) -> str: ...
+    def to_json(self) -> str:
+        """The calib-rig-result JSON (what ``calib rig -o`` writes)."""
+    def __len__(self) -> int: ...
+    def __getitem__(self, index: int) -> Any: ...
+    def __iter__(self) -> Iterator[Any]: ...
+
+def calibrate_camera(
+    object_points: Iterable[Points],
+    image_points: Iterable[Points],
+    image_size: ImageSize,
+    model: Optional[ModelName] = None,
+    fix: Union[None, FixName, Iterable[FixName]] = None,
+    *,
+    K: Optional[npt.ArrayLike] = None,
+    dist: Optional[npt.ArrayLike] = None,
+    reject_outliers: bool = False,
+    outlier_threshold: float = 5.0,
+    loss: Loss = None,
+    loss_scale: float = 1.0,
+    rotation: Optional[Rotation] = None,
+    skip_bad_views: bool = False,
+    drop_duplicate_views: bool = False,
+    compute_std: bool = True,
+    max_iterations: int = 500,
+    threads: int = 0,
+    names: Optional[Sequence[str]] = None,
+) -> CameraCalibration:
+    """Calibrates one camera, like cv2.calibrateCamera (every point fitted unless
+    ``reject_outliers``). Raises CalibrationError, ValueError, TypeError."""
+
+def stereo_calibrate(
+    object_points: Iterable[Points],
+    image_points1: Iterable[Points],
+    image_points2: Iterable[Points],
+    image_size: ImageSize,
+    K1: Optional[npt.ArrayLike] = None,
+    D1: Optional[npt.ArrayLike] = None,
+    K2: Optional[npt.ArrayLike] = None,
+    D2: Optional[npt.ArrayLike] = None,
+    *,
+    model: Optional[ModelName] = None,
+    model2: Optional[ModelName] = None,
+    fix: Union[None, FixName, Iterable[FixName]] = None,
+    fix2: Union[None, FixName, Iterable[FixName]] = None,
+    image_size2: Optional[ImageSize] = None,
+    fix_intrinsics: bool = False,
+    fix_intrinsics1: bool = False,
+    fix_intrinsics2: bool = False,
+    same_focal_length: bool = False,
+    R: Optional[npt.ArrayLike] = None,
+    T: Optional[npt.ArrayLike] = None,
+    rig_init: Literal["least-squares", "median"] = "least-squares",
+    reject_outliers: bool = False,
+    outlier_threshold: float = 5.0,
+    loss: Loss = None,
+    loss_scale: float = 1.0,
+    rotation: Optional[Rotation] = None,
+    skip_bad_pairs: bool = False,
+    max_iterations: int = 500,
+    threads: int = 0,
+    names: Optional[Sequence[str]] = None,
+) -> StereoCalibration:
+    """Calibrates a stereo pair (both cameras, the rig, every pair's pose), like
+    cv2.stereoCalibrate without CALIB_FIX_INTRINSIC."""
+
+def calibrate_rig(
+    image_sizes: Sequence[ImageSize],
+    object_points: Sequence[Optional[Points]],
+    image_points: Sequence[
+        Union[
+            Mapping[Union[int, str], Union[Points, tuple[Points, Points], None]],
+            Sequence[Union[Points, tuple[Points, Points], None]],
+        ]
+    ],
+    models: Union[None, ModelName, Sequence[Optional[ModelName]]] = None,
+    *,
+    names: Optional[Sequence[str]] = None,
+    reference: Union[None, int, str] = None,
+    known: Optional[Mapping[Union[int, str], tuple[npt.ArrayLike, npt.ArrayLike]]] = None,
+    fix: Union[None, FixName, Iterable[FixName]] = None,
+    min_views: int = 3,
+    reject_outliers: bool = False,
+    outlier_threshold: float = 5.0,
+    loss: Loss = None,
+    loss_scale: float = 1.0,
+    rotation: Optional[Rotation] = None,
+    skip_bad_views: bool = False,
+    max_iterations: int = 500,
+    threads: int = 0,
+) -> RigCalibration:
+    """Calibrates a rig of N cameras, each seeing the board in some frames."""
+
+@overload
+def detect_chessboard(
+    image: npt.NDArray[np.uint8],
+    pattern_size: tuple[int, int],
+    *,
+    dtype: None = None,
+    raise_on_failure: bool = False,
+) -> Optional[npt.NDArray[np.float32]]: ...
+@overload
+def detect_chessboard(
+    image: npt.NDArray[np.uint8],
+    pattern_size: tuple[int, int],
+    *,
+    dtype: npt.DTypeLike,
+    raise_on_failure: bool = False,
+) -> Optional[npt.NDArray[Any]]: ...
+def imread_gray(path: Union[str, PathLike[str]]) -> npt.NDArray[np.uint8]:
+    """A JPEG or PNG file as 8-bit grey (H, W), as the calib command reads it."""
+
+def board_points(
+    pattern_size: tuple[int, int], square: float = 1.0, *, dtype: Optional[npt.DTypeLike] = None
+) -> npt.NDArray[Any]:
+    """(c * square, r * square, 0) row-major, (N, 3), in detect_chessboard's order."""
+
+def undistort_points(
+    points: Points,
+    K: npt.ArrayLike,
+    dist: npt.ArrayLike,
+    *,
+    model: Optional[ModelName] = None,
+    R: Optional[npt.ArrayLike] = None,
+    P: Optional[npt.ArrayLike] = None,
+) -> npt.NDArray[np.float64]:
+    """Ideal normalized coordinates (or pixels of P) of distorted pixels, like
+    cv2.undistortPoints; NaN where the model cannot be inverted."""

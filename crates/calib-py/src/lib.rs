@@ -1,0 +1,92 @@
+//! Python bindings of the calibration crates: the package `calib` (this is its extension module
+//! `calib._calib`; `python/calib/__init__.py` re-exports it, `python/calib/__init__.pyi` types
+//! it). The functions take and return NumPy arrays in the shapes OpenCV's Python functions use.
+//!
+//! The bindings add no algorithm: each function converts its arguments, calls one function of
+//! `calib-single`, `calib-stereo`, `calib-rig`, `board-detect` or `camera-model` with the GIL
+//! released, and converts the result. Errors of the Rust crates become `calib.CalibrationError`
+//! with the crates' messages; bad arguments become `TypeError` / `ValueError` naming the argument.
+//! Documentation: `docs/python.md`.
+
+mod camera;
+mod convert;
+mod detect;
+mod options;
+mod rig;
+mod single;
+mod stereo;
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+
+create_exception!(
+    calib,
+    CalibrationError,
+    PyException,
+    "A calibration (or detection, or file) failed; the message is the Rust crate's, naming the view and point at fault."
+);
+
+/// `calib.CalibrationError` with the message of a Rust error.
+pub(crate) fn calibration_error(e: impl std::fmt::Display) -> PyErr {
+    CalibrationError::new_err(e.to_string())
+}
+
+/// Something in a result that deserves attention: a stable `code` (e.g. `"poorly-determined"`)
+/// and a `message` saying what to do.
+#[pyclass(module = "calib", frozen, get_all)]
+#[derive(Clone)]
+pub struct CalibrationWarning {
+    /// The stable code, as in the JSON results (`docs/calib-single.md` lists them).
+    code: String,
+    /// What happened and what to do.
+    message: String,
+}
+
+#[pymethods]
+impl CalibrationWarning {
+    fn __repr__(&self) -> String {
+        format!(
+            "CalibrationWarning(code={:?}, message={:?})",
+            self.code, self.message
+        )
+    }
+
+    fn __str__(&self) -> String {
+        format!("warning [{}]: {}", self.code, self.message)
+    }
+}
+
+impl From<&calib_core::Warning> for CalibrationWarning {
+    fn from(w: &calib_core::Warning) -> Self {
+        Self {
+            code: w.code.name().to_string(),
+            message: w.message.clone(),
+        }
+    }
+}
+
+/// Warnings as a Python list.
+pub(crate) fn warnings_out<'py>(
+    py: Python<'py>,
+    warnings: &[calib_core::Warning],
+) -> PyResult<Bound<'py, pyo3::types::PyList>> {
+    pyo3::types::PyList::new(py, warnings.iter().map(CalibrationWarning::from))
+}
+
+/// Camera calibration (single cameras, stereo pairs, rigs of N cameras) and chessboard detection,
+/// with NumPy arrays shaped like OpenCV's. See `help(calib)` and docs/python.md.
+#[pymodule]
+#[pyo3(name = "_calib")]
+fn calib_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("CalibrationError", py.get_type::<CalibrationError>())?;
+    m.add_class::<CalibrationWarning>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    single::register(m)?;
+    stereo::register(m)?;
+    rig::register(m)?;
+    detect::register(m)?;
+    camera::register(m)?;
+    Ok(())
+}

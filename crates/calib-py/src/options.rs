@@ -1,0 +1,193 @@
+//! The keyword arguments shared by `calibrate_camera`, `stereo_calibrate` and `calibrate_rig`,
+//! turned into the crates' `CalibrationOptions` the way the `calib` command does
+//! (`crates/calib-cli/src/single.rs`), except that outlier rejection is off unless asked (cv2
+//! fits every point) and repeated views are kept unless asked.
+
+use crate::convert;
+use calib_core::{CalibrationOptions, OutlierRejection};
+use camera_model::{CameraModel, RotationKind};
+use lm_solver::Loss;
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+
+/// Names accepted by `fix` besides the model's distortion coefficients.
+pub const FIX_FLAGS: [&str; 4] = [
+    "principal_point",
+    "focal_length",
+    "aspect_ratio",
+    "tangential",
+];
+
+/// A lens model by name (`None`: the default, brown-conrady4).
+pub fn model(name: Option<&str>, what: &str) -> PyResult<CameraModel> {
+    match name {
+        None => Ok(CameraModel::default()),
+        Some(name) => name.parse().map_err(|e| {
+            PyValueError::new_err(format!(
+                "{what}: {e} (expected one of {})",
+                CameraModel::NAMES.join(", ")
+            ))
+        }),
+    }
+}
+
+/// The names in `fix`: a string ("k3", or "k2,k3") or an iterable of strings.
+pub fn fix_names(fix: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<String>> {
+    let Some(fix) = fix else {
+        return Ok(Vec::new());
+    };
+    if fix.is_none() {
+        return Ok(Vec::new());
+    }
+    let split = |s: &str| -> Vec<String> {
+        s.split(',')
+            .map(|n| n.trim().to_ascii_lowercase().replace('-', "_"))
+            .filter(|n| !n.is_empty())
+            .collect()
+    };
+    if let Ok(s) = fix.cast::<PyString>() {
+        return Ok(split(&s.to_cow()?));
+    }
+    let mut names = Vec::new();
+    for item in fix.try_iter().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "{what}: expected a string or a list of strings, got {}",
+            convert::type_name(fix)
+        ))
+    })? {
+        let item = item?;
+        let s = item.cast::<PyString>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{what}: expected strings, got {}",
+                convert::type_name(&item)
+            ))
+        })?;
+        names.extend(split(&s.to_cow()?));
+    }
+    Ok(names)
+}
+
+/// Applies `fix` to `options` (whose model is already set).
+pub fn apply_fix(options: &mut CalibrationOptions, names: &[String], what: &str) -> PyResult<()> {
+    let mut distortion: Vec<&str> = Vec::new();
+    for name in names {
+        match name.as_str() {
+            "principal_point" => options.fix_principal_point = true,
+            "focal_length" => options.fix_focal_length = true,
+            "aspect_ratio" => options.fix_aspect_ratio = true,
+            "tangential" | "tangent_dist" => options.zero_tangential_distortion = true,
+            other => distortion.push(other),
+        }
+    }
+    options.fixed_distortion.clear();
+    options.fix_distortion_by_name(&distortion).map_err(|e| {
+        PyValueError::new_err(format!("{what}: {e}, or one of {}", FIX_FLAGS.join(", ")))
+    })
+}
+
+/// The solver settings common to every calibration function.
+pub struct Common {
+    pub reject_outliers: bool,
+    pub outlier_threshold: f64,
+    pub loss: Option<String>,
+    pub loss_scale: f64,
+    pub rotation: Option<String>,
+    pub max_iterations: usize,
+    pub threads: usize,
+}
+
+impl Common {
+    /// The outlier rejection these settings ask for.
+    pub fn outliers(&self) -> PyResult<Option<OutlierRejection>> {
+        if !(self.outlier_threshold.is_finite() && self.outlier_threshold >= 2.0) {
+            return Err(PyValueError::new_err(format!(
+                "outlier_threshold: expected a number of sigmas of at least 2, got {}",
+                self.outlier_threshold
+            )));
+        }
+        Ok(self
+            .reject_outliers
+            .then(|| OutlierRejection::with_threshold(self.outlier_threshold)))
+    }
+
+    /// The robust loss.
+    pub fn loss(&self) -> PyResult<Loss> {
+        if !(self.loss_scale.is_finite() && self.loss_scale > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "loss_scale: expected a positive number of pixels, got {}",
+                self.loss_scale
+            )));
+        }
+        match self.loss.as_deref() {
+            None | Some("none") | Some("linear") => Ok(Loss::Trivial),
+            Some("huber") => Ok(Loss::Huber(self.loss_scale)),
+            Some("cauchy") => Ok(Loss::Cauchy(self.loss_scale)),
+            Some(other) => Err(PyValueError::new_err(format!(
+                "loss: unknown loss '{other}' (expected None, 'huber' or 'cauchy')"
+            ))),
+        }
+    }
+
+    /// The rotation parameterization (`default` when not given).
+    pub fn rotation(&self, default: RotationKind) -> PyResult<RotationKind> {
+        match self.rotation.as_deref() {
+            None => Ok(default),
+            Some("euler") | Some("euler-xyz") => Ok(RotationKind::EulerXyz),
+            Some("axis-angle") | Some("rodrigues") => Ok(RotationKind::AxisAngle),
+            Some("so3") => Ok(RotationKind::So3),
+            Some(other) => Err(PyValueError::new_err(format!(
+                "rotation: unknown parameterization '{other}' (expected 'euler', 'axis-angle' or 'so3')"
+            ))),
+        }
+    }
+
+    /// `options` with these settings (model, fixes and guesses are set by the caller).
+    pub fn apply(&self, options: &mut CalibrationOptions) -> PyResult<()> {
+        options.outliers = self.outliers()?;
+        options.loss = self.loss()?;
+        options.rotation = self.rotation(RotationKind::EulerXyz)?;
+        if self.max_iterations == 0 || self.max_iterations > 1_000_000 {
+            return Err(PyValueError::new_err(format!(
+                "max_iterations: expected 1 to 1000000, got {}",
+                self.max_iterations
+            )));
+        }
+        options.solver.max_iterations = self.max_iterations;
+        options.solver.num_threads = self.threads;
+        Ok(())
+    }
+}
+
+/// One camera's options: model, `fix`, and the guesses `K` and `dist` (either may be `None`).
+pub fn camera_options(
+    model: CameraModel,
+    fix: &[String],
+    k: Option<&Bound<'_, PyAny>>,
+    dist: Option<&Bound<'_, PyAny>>,
+    common: &Common,
+    what: &str,
+) -> PyResult<CalibrationOptions> {
+    let mut options = CalibrationOptions::default();
+    options.model = model;
+    apply_fix(&mut options, fix, &format!("fix{what}"))?;
+    common.apply(&mut options)?;
+    // cv2 semantics: a camera matrix passed as `None` means "no guess".
+    if let Some(k) = k.filter(|k| !k.is_none()) {
+        options.intrinsic_guess = Some(convert::intrinsics_from_k(k, &format!("K{what}"))?);
+    }
+    if let Some(d) = dist.filter(|d| !d.is_none()) {
+        let names = model.distortion_names();
+        let v = convert::vector(d, &format!("dist{what}"))?;
+        if v.len() != names.len() {
+            return Err(PyValueError::new_err(format!(
+                "dist{what}: model {model} has {} coefficients ({}), got {}",
+                names.len(),
+                names.join(", "),
+                v.len()
+            )));
+        }
+        options.distortion_guess = Some(v);
+    }
+    Ok(options)
+}

@@ -1,0 +1,378 @@
+//! `calibrate_camera`: `calib_single::calibrate` with cv2.calibrateCamera's arguments and results.
+
+use crate::convert::{self, flat_out, mat3_out, row_out, rvec_tvec};
+use crate::options::{self, Common};
+use crate::{calibration_error, warnings_out};
+use calib_single::{Calibration, Observations, View, calibrate};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyList, PyTuple};
+
+/// The views of one camera from per-view lists of board points and pixels.
+pub fn views(
+    object_points: &Bound<'_, PyAny>,
+    image_points: &Bound<'_, PyAny>,
+    names: Option<&Bound<'_, PyAny>>,
+    obj_what: &str,
+    img_what: &str,
+) -> PyResult<Vec<View>> {
+    let objects = convert::view_list(object_points, obj_what)?;
+    let images = convert::view_list(image_points, img_what)?;
+    convert::check_same_length(objects.len(), obj_what, images.len(), img_what)?;
+    let names = view_names(names, objects.len(), "view")?;
+    objects
+        .iter()
+        .zip(&images)
+        .zip(names)
+        .enumerate()
+        .map(|(i, ((o, p), name))| {
+            Ok(View {
+                name,
+                object_points: convert::points3(o, &format!("{obj_what}[{i}]"))?,
+                image_points: convert::points2(p, &format!("{img_what}[{i}]"))?,
+            })
+        })
+        .collect()
+}
+
+/// `names` (a list of `n` strings) or "view 0", "view 1", ...
+pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyResult<Vec<String>> {
+    match names.filter(|x| !x.is_none()) {
+        None => Ok((0..n).map(|i| format!("{what} {i}")).collect()),
+        Some(names) => {
+            let names: Vec<String> = names.extract().map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err("names: expected a list of strings")
+            })?;
+            if names.len() != n {
+                return Err(PyValueError::new_err(format!(
+                    "names: {} names for {n} views",
+                    names.len()
+                )));
+            }
+            Ok(names)
+        }
+    }
+}
+
+/// Calibrates one camera from views of a planar board, like ``cv2.calibrateCamera``.
+///
+/// ``object_points``: one array per view of board points, shape (N, 3) or (N, 1, 3), Z = 0.
+/// ``image_points``: one array per view of pixels, shape (N, 2) or (N, 1, 2), same order.
+/// float32 or float64 (integers are converted). ``image_size``: (width, height).
+///
+/// ``model``: "brown-conrady4" (k1 k2 p1 p2, the default), "brown-conrady5" (+k3, OpenCV's
+/// default model), "rational8", "thin-prism12" or "kannala-brandt4" (fisheye).
+/// ``fix``: names to hold: "principal_point", "focal_length", "aspect_ratio", "tangential"
+/// (p1 = p2 = 0) and the model's coefficient names ("k3", ...), held at their guess (zero).
+/// ``model`` and ``fix`` accept ``None``, so cv2's ``calibrateCamera(obj, img, size, None, None)``
+/// works unchanged.
+///
+/// ``K`` and ``dist``: start from this camera matrix and these coefficients instead of the
+/// closed-form guess. ``reject_outliers``: drop points far beyond the noise
+/// (``outlier_threshold`` robust sigmas) and solve again; off by default, so that every point is
+/// fitted as cv2 does. ``drop_duplicate_views``: leave out repeated views (with a warning).
+/// ``threads``: 0 uses every core; the result does not depend on it.
+///
+/// Returns a :class:`CameraCalibration`, which unpacks as ``rms, K, dist, rvecs, tvecs``.
+/// Raises :class:`CalibrationError` with the crate's message (naming the view and point) when the
+/// data cannot be calibrated. The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (
+    object_points, image_points, image_size, model=None, fix=None, *, K=None, dist=None,
+    reject_outliers=false, outlier_threshold=5.0, loss=None, loss_scale=1.0, rotation=None,
+    skip_bad_views=false, drop_duplicate_views=false, compute_std=true, max_iterations=500,
+    threads=0, names=None
+))]
+#[allow(non_snake_case, clippy::too_many_arguments)]
+fn calibrate_camera(
+    py: Python<'_>,
+    object_points: &Bound<'_, PyAny>,
+    image_points: &Bound<'_, PyAny>,
+    image_size: &Bound<'_, PyAny>,
+    model: Option<&str>,
+    fix: Option<&Bound<'_, PyAny>>,
+    K: Option<&Bound<'_, PyAny>>,
+    dist: Option<&Bound<'_, PyAny>>,
+    reject_outliers: bool,
+    outlier_threshold: f64,
+    loss: Option<String>,
+    loss_scale: f64,
+    rotation: Option<String>,
+    skip_bad_views: bool,
+    drop_duplicate_views: bool,
+    compute_std: bool,
+    max_iterations: usize,
+    threads: usize,
+    names: Option<&Bound<'_, PyAny>>,
+) -> PyResult<CameraCalibration> {
+    let common = Common {
+        reject_outliers,
+        outlier_threshold,
+        loss,
+        loss_scale,
+        rotation,
+        max_iterations,
+        threads,
+    };
+    let model = options::model(model, "model")?;
+    let fix = options::fix_names(fix, "fix")?;
+    let mut opts = options::camera_options(model, &fix, K, dist, &common, "")?;
+    opts.skip_bad_views = skip_bad_views;
+    opts.drop_duplicate_views = drop_duplicate_views;
+    opts.compute_uncertainty = compute_std;
+    let size = convert::image_size(image_size, "image_size")?;
+    let observations = Observations {
+        image_size: Some(size),
+        views: views(
+            object_points,
+            image_points,
+            names,
+            "object_points",
+            "image_points",
+        )?,
+    };
+    let result = py
+        .detach(|| calibrate(&observations, &opts))
+        .map_err(calibration_error)?;
+    Ok(CameraCalibration { inner: result })
+}
+
+/// The result of :func:`calibrate_camera`. Unpacks like cv2's result:
+/// ``rms, K, dist, rvecs, tvecs = calib.calibrate_camera(...)``.
+///
+/// ``rvecs``, ``tvecs`` and ``per_view_rms`` follow ``view_indices`` (every input view unless
+/// views were skipped or dropped as duplicates, which the warnings say).
+#[pyclass(module = "calib", frozen)]
+pub struct CameraCalibration {
+    pub inner: Calibration,
+}
+
+impl CameraCalibration {
+    fn tuple<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(
+            py,
+            [
+                self.rms().into_pyobject(py)?.into_any(),
+                self.k(py).into_any(),
+                self.dist(py).into_any(),
+                self.rvecs(py)?.into_any(),
+                self.tvecs(py)?.into_any(),
+            ],
+        )
+    }
+}
+
+#[pymethods]
+impl CameraCalibration {
+    /// RMS reprojection error over the used points, pixels (cv2's ``retval``).
+    #[getter]
+    fn rms(&self) -> f64 {
+        self.inner.rms
+    }
+
+    /// Camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], shape (3, 3).
+    #[getter(K)]
+    fn k<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.camera.matrix())
+    }
+
+    /// Distortion coefficients in OpenCV's order for the model, shape (1, N).
+    #[getter]
+    fn dist<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        row_out(py, &self.inner.camera.distortion)
+    }
+
+    /// Board-to-camera rotations as Rodrigues vectors, one (3, 1) array per used view.
+    #[getter]
+    fn rvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        convert::list_out(
+            py,
+            self.inner.views.iter().map(|v| rvec_tvec(py, &v.pose).0),
+        )
+    }
+
+    /// Board-to-camera translations, one (3, 1) array per used view (board units).
+    #[getter]
+    fn tvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        convert::list_out(
+            py,
+            self.inner.views.iter().map(|v| rvec_tvec(py, &v.pose).1),
+        )
+    }
+
+    /// Standard deviations of ``param_names`` (fx, fy, cx, cy, then the coefficients), shape
+    /// (4 + N,); zero for fixed parameters (cv2's ``stdDeviationsIntrinsics``).
+    #[getter]
+    fn std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let mut v = self.inner.intrinsics_std.to_vec();
+        v.extend_from_slice(&self.inner.distortion_std);
+        flat_out(py, &v)
+    }
+
+    /// Names of the intrinsic parameters: fx, fy, cx, cy and the model's coefficients.
+    #[getter]
+    fn param_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = ["fx", "fy", "cx", "cy"].map(String::from).to_vec();
+        names.extend(
+            self.inner
+                .camera
+                .model
+                .distortion_names()
+                .iter()
+                .map(|s| s.to_string()),
+        );
+        names
+    }
+
+    /// Names of the parameters held fixed.
+    #[getter]
+    fn fixed_parameters(&self) -> Vec<String> {
+        self.inner.fixed_parameters.clone()
+    }
+
+    /// Standard deviations of each used view's pose parameters ``[rotation (3), translation (3)]``
+    /// in the ``rotation`` parameterization, shape (views, 6).
+    #[getter]
+    fn pose_std<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = self
+            .inner
+            .views
+            .iter()
+            .map(|v| v.pose_std.to_vec())
+            .collect();
+        Ok(PyArray2::from_vec2(py, &rows).unwrap_or_else(|_| PyArray2::zeros(py, [0, 6], false)))
+    }
+
+    /// RMS reprojection error of each used view, pixels, shape (views,).
+    #[getter]
+    fn per_view_rms<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v: Vec<f64> = self.inner.views.iter().map(|v| v.rms).collect();
+        flat_out(py, &v)
+    }
+
+    /// Input index of each used view.
+    #[getter]
+    fn view_indices(&self) -> Vec<usize> {
+        self.inner.views.iter().map(|v| v.index).collect()
+    }
+
+    /// Views left out, as (input index, reason).
+    #[getter]
+    fn skipped_views(&self) -> Vec<(usize, String)> {
+        self.inner
+            .skipped_views
+            .iter()
+            .map(|s| (s.index, s.reason.clone()))
+            .collect()
+    }
+
+    /// Indices (in each used view's input arrays) of the points rejected as outliers.
+    #[getter]
+    fn rejected_points(&self) -> Vec<Vec<usize>> {
+        self.inner
+            .views
+            .iter()
+            .map(|v| v.rejected_points.clone())
+            .collect()
+    }
+
+    /// RMS over every point, rejected outliers included, pixels.
+    #[getter]
+    fn rms_all_points(&self) -> f64 {
+        self.inner.rms_all_points
+    }
+
+    /// Number of points used.
+    #[getter]
+    fn num_points(&self) -> usize {
+        self.inner.num_points
+    }
+
+    /// The lens model's name.
+    #[getter]
+    fn model(&self) -> &'static str {
+        self.inner.camera.model.name()
+    }
+
+    /// (width, height).
+    #[getter]
+    fn image_size(&self) -> (u32, u32) {
+        (self.inner.image_size.width, self.inner.image_size.height)
+    }
+
+    /// Rotation parameterization of the poses during the optimization (of ``pose_std``).
+    #[getter]
+    fn rotation(&self) -> &'static str {
+        self.inner.rotation.name()
+    }
+
+    /// What deserves attention (list of :class:`CalibrationWarning`).
+    #[getter]
+    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        warnings_out(py, &self.inner.warnings)
+    }
+
+    /// The Levenberg-Marquardt report as a dict (termination, costs, iterations, timings).
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.inner.to_json()["solver"])
+    }
+
+    /// Wall time of the calibration in seconds.
+    #[getter]
+    fn elapsed(&self) -> f64 {
+        self.inner.elapsed.as_secs_f64()
+    }
+
+    /// A human summary: every parameter with +- 3 sigma, the RMS, the worst views, warnings.
+    fn summary(&self) -> String {
+        self.inner.summary()
+    }
+
+    /// The result as JSON text, the ``calib-single-result`` format of docs/formats.md (what
+    /// ``calib single -o`` writes).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string_pretty(&self.inner.to_json()).map_err(calibration_error)
+    }
+
+    fn __len__(&self) -> usize {
+        5
+    }
+
+    fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
+        let i = if index < 0 { index + 5 } else { index };
+        if !(0..5).contains(&i) {
+            return Err(PyIndexError::new_err(
+                "CameraCalibration index out of range",
+            ));
+        }
+        self.tuple(py)?.get_item(i as usize)
+    }
+
+    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(self.tuple(py)?.try_iter()?.into_any())
+    }
+
+    fn __repr__(&self) -> String {
+        let c = &self.inner.camera;
+        let k = &c.intrinsics;
+        format!(
+            "CameraCalibration(model={:?}, rms={:.5}, fx={:.3}, fy={:.3}, cx={:.3}, cy={:.3}, views={}, warnings={})",
+            c.model.name(),
+            self.inner.rms,
+            k.fx,
+            k.fy,
+            k.cx,
+            k.cy,
+            self.inner.views.len(),
+            self.inner.warnings.len()
+        )
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(calibrate_camera, m)?)?;
+    m.add_class::<CameraCalibration>()?;
+    Ok(())
+}

@@ -1,0 +1,446 @@
+//! `stereo_calibrate`: `calib_stereo::calibrate_stereo` with cv2.stereoCalibrate's results.
+
+use crate::convert::{self, column_out, flat_out, mat3_out, row_out, rvec_tvec};
+use crate::options::{self, Common};
+use crate::single::view_names;
+use crate::{calibration_error, warnings_out};
+use calib_core::result::CameraEstimate;
+use calib_single::View;
+use calib_stereo::{
+    RigInit, StereoCalibration, StereoObservations, StereoOptions, StereoPair, calibrate_stereo,
+};
+use camera_model::RotationKind;
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyList, PyTuple};
+
+/// Calibrates a stereo pair from simultaneous views of a planar board, like
+/// ``cv2.stereoCalibrate`` but estimating everything by default (both cameras, every pair's
+/// board pose and the rig ``X2 = R X1 + T``).
+///
+/// ``object_points``: one (N, 3) array per pair; ``image_points1`` / ``image_points2``: the
+/// first (left) and second (right) camera's pixels of those points, (N, 2) or (N, 1, 2) per
+/// pair. ``image_size``: (width, height) of both cameras (``image_size2`` if the second differs).
+///
+/// ``K1``, ``D1``, ``K2``, ``D2``: starting camera matrices and coefficients (``None``: each
+/// camera is first calibrated alone). ``fix_intrinsics`` holds both cameras' intrinsics and
+/// coefficients (cv2's ``CALIB_FIX_INTRINSIC``): at ``K``/``D`` when given, else at the camera's
+/// own calibration; ``fix_intrinsics1`` / ``fix_intrinsics2`` hold one. ``model`` / ``model2``,
+/// ``fix`` / ``fix2`` as in :func:`calibrate_camera` (the second camera defaults to the
+/// first's). ``same_focal_length``: both cameras share fx, fy. ``R``, ``T``: a starting rig
+/// (rotation matrix or vector).
+///
+/// Returns a :class:`StereoCalibration`, which unpacks as
+/// ``rms, K1, D1, K2, D2, R, T, E, F``. Raises :class:`CalibrationError` naming the pair and
+/// camera. The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (
+    object_points, image_points1, image_points2, image_size, K1=None, D1=None, K2=None, D2=None,
+    *, model=None, model2=None, fix=None, fix2=None, image_size2=None, fix_intrinsics=false,
+    fix_intrinsics1=false, fix_intrinsics2=false, same_focal_length=false, R=None, T=None,
+    rig_init="least-squares", reject_outliers=false, outlier_threshold=5.0, loss=None,
+    loss_scale=1.0, rotation=None, skip_bad_pairs=false, max_iterations=500, threads=0, names=None
+))]
+#[allow(non_snake_case, clippy::too_many_arguments)]
+fn stereo_calibrate(
+    py: Python<'_>,
+    object_points: &Bound<'_, PyAny>,
+    image_points1: &Bound<'_, PyAny>,
+    image_points2: &Bound<'_, PyAny>,
+    image_size: &Bound<'_, PyAny>,
+    K1: Option<&Bound<'_, PyAny>>,
+    D1: Option<&Bound<'_, PyAny>>,
+    K2: Option<&Bound<'_, PyAny>>,
+    D2: Option<&Bound<'_, PyAny>>,
+    model: Option<&str>,
+    model2: Option<&str>,
+    fix: Option<&Bound<'_, PyAny>>,
+    fix2: Option<&Bound<'_, PyAny>>,
+    image_size2: Option<&Bound<'_, PyAny>>,
+    fix_intrinsics: bool,
+    fix_intrinsics1: bool,
+    fix_intrinsics2: bool,
+    same_focal_length: bool,
+    R: Option<&Bound<'_, PyAny>>,
+    T: Option<&Bound<'_, PyAny>>,
+    rig_init: &str,
+    reject_outliers: bool,
+    outlier_threshold: f64,
+    loss: Option<String>,
+    loss_scale: f64,
+    rotation: Option<String>,
+    skip_bad_pairs: bool,
+    max_iterations: usize,
+    threads: usize,
+    names: Option<&Bound<'_, PyAny>>,
+) -> PyResult<StereoCalibrationResult> {
+    let common = Common {
+        reject_outliers,
+        outlier_threshold,
+        loss,
+        loss_scale,
+        rotation,
+        max_iterations,
+        threads,
+    };
+    let model1 = options::model(model, "model")?;
+    let model2 = match model2 {
+        Some(m) => options::model(Some(m), "model2")?,
+        None => model1,
+    };
+    let fix1 = options::fix_names(fix, "fix")?;
+    let fix2 = match fix2.filter(|f| !f.is_none()) {
+        Some(f) => options::fix_names(Some(f), "fix2")?,
+        None => fix1.clone(),
+    };
+    let mut left = options::camera_options(model1, &fix1, K1, D1, &common, "1")?;
+    let mut right = options::camera_options(model2, &fix2, K2, D2, &common, "2")?;
+    // cv2's CALIB_FIX_INTRINSIC with a given camera matrix holds exactly that camera (and the
+    // given coefficients, zero if none): hold them in the single-camera stage too. Without a
+    // camera matrix the camera is held at its single-camera estimate.
+    let hold_given =
+        |o: &mut calib_core::CalibrationOptions, fixed: bool, k: Option<&Bound<'_, PyAny>>| {
+            if fixed && k.is_some_and(|k| !k.is_none()) {
+                o.fix_focal_length = true;
+                o.fix_principal_point = true;
+                o.fixed_distortion = (0..o.model.num_distortion_params()).collect();
+            }
+        };
+    hold_given(&mut left, fix_intrinsics || fix_intrinsics1, K1);
+    hold_given(&mut right, fix_intrinsics || fix_intrinsics2, K2);
+    let mut opts = StereoOptions::default();
+    opts.solver = left.solver.clone();
+    opts.rotation = common.rotation(RotationKind::EulerXyz)?;
+    opts.outliers = common.outliers()?;
+    opts.loss = common.loss()?;
+    opts.skip_bad_pairs = skip_bad_pairs;
+    opts.left = left;
+    opts.right = right;
+    opts.fix_left_intrinsics = fix_intrinsics || fix_intrinsics1;
+    opts.fix_right_intrinsics = fix_intrinsics || fix_intrinsics2;
+    opts.same_focal_length = same_focal_length;
+    opts.rig_init = match rig_init {
+        "least-squares" => RigInit::LeastSquares,
+        "median" => RigInit::Median,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "rig_init: expected 'least-squares' or 'median', got '{other}'"
+            )));
+        }
+    };
+    opts.rig_guess = match (R.filter(|r| !r.is_none()), T.filter(|t| !t.is_none())) {
+        (Some(r), Some(t)) => Some(convert::pose(r, t, "rig guess")?),
+        (None, None) => None,
+        _ => {
+            return Err(PyValueError::new_err(
+                "R, T: give both (a starting rig) or neither",
+            ));
+        }
+    };
+
+    let objects = convert::view_list(object_points, "object_points")?;
+    let left_images = convert::view_list(image_points1, "image_points1")?;
+    let right_images = convert::view_list(image_points2, "image_points2")?;
+    convert::check_same_length(
+        objects.len(),
+        "object_points",
+        left_images.len(),
+        "image_points1",
+    )?;
+    convert::check_same_length(
+        objects.len(),
+        "object_points",
+        right_images.len(),
+        "image_points2",
+    )?;
+    let names = view_names(names, objects.len(), "pair")?;
+    let mut pairs = Vec::with_capacity(objects.len());
+    for (i, name) in names.into_iter().enumerate() {
+        let object = convert::points3(&objects[i], &format!("object_points[{i}]"))?;
+        pairs.push(StereoPair {
+            left: View {
+                name: format!("{name} left"),
+                object_points: object.clone(),
+                image_points: convert::points2(&left_images[i], &format!("image_points1[{i}]"))?,
+            },
+            right: View {
+                name: format!("{name} right"),
+                object_points: object,
+                image_points: convert::points2(&right_images[i], &format!("image_points2[{i}]"))?,
+            },
+        });
+    }
+    let size = convert::image_size(image_size, "image_size")?;
+    let size2 = match image_size2.filter(|s| !s.is_none()) {
+        Some(s) => Some(convert::image_size(s, "image_size2")?),
+        None => None,
+    };
+    let observations = StereoObservations {
+        image_size: Some(size),
+        right_image_size: size2,
+        pairs,
+    };
+    let result = py
+        .detach(|| calibrate_stereo(&observations, &opts))
+        .map_err(calibration_error)?;
+    Ok(StereoCalibrationResult { inner: result })
+}
+
+/// `[fx, fy, cx, cy, k...]` standard deviations of a camera.
+pub fn camera_std(c: &CameraEstimate) -> Vec<f64> {
+    let mut v = c.intrinsics_std.to_vec();
+    v.extend_from_slice(&c.distortion_std);
+    v
+}
+
+/// The result of :func:`stereo_calibrate`. Unpacks like cv2's result:
+/// ``rms, K1, D1, K2, D2, R, T, E, F = calib.stereo_calibrate(...)``.
+#[pyclass(module = "calib", frozen, name = "StereoCalibration")]
+pub struct StereoCalibrationResult {
+    pub inner: StereoCalibration,
+}
+
+impl StereoCalibrationResult {
+    fn tuple<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(
+            py,
+            [
+                self.inner.rms.into_pyobject(py)?.into_any(),
+                self.k1(py).into_any(),
+                self.d1(py).into_any(),
+                self.k2(py).into_any(),
+                self.d2(py).into_any(),
+                self.r(py).into_any(),
+                self.t(py).into_any(),
+                self.e(py).into_any(),
+                self.f(py).into_any(),
+            ],
+        )
+    }
+}
+
+#[pymethods]
+impl StereoCalibrationResult {
+    /// RMS reprojection error over the used points of both cameras, pixels.
+    #[getter]
+    fn rms(&self) -> f64 {
+        self.inner.rms
+    }
+
+    /// First (left) camera matrix, (3, 3).
+    #[getter(K1)]
+    fn k1<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.left.camera.matrix())
+    }
+
+    /// First camera's distortion coefficients, (1, N).
+    #[getter(D1)]
+    fn d1<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        row_out(py, &self.inner.left.camera.distortion)
+    }
+
+    /// Second (right) camera matrix, (3, 3).
+    #[getter(K2)]
+    fn k2<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.right.camera.matrix())
+    }
+
+    /// Second camera's distortion coefficients, (1, N).
+    #[getter(D2)]
+    fn d2<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        row_out(py, &self.inner.right.camera.distortion)
+    }
+
+    /// Rotation from the first camera to the second: ``X2 = R X1 + T``, (3, 3).
+    #[getter(R)]
+    fn r<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.rig.rotation)
+    }
+
+    /// Translation from the first camera to the second, (3, 1), board units.
+    #[getter(T)]
+    fn t<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        column_out(py, self.inner.rig.translation.as_slice())
+    }
+
+    /// Essential matrix ``[T]x R``, (3, 3).
+    #[getter(E)]
+    fn e<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.essential)
+    }
+
+    /// Fundamental matrix, (3, 3), scaled so that F[2, 2] = 1 when possible.
+    #[getter(F)]
+    fn f<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        mat3_out(py, &self.inner.fundamental)
+    }
+
+    /// Standard deviations of the first camera's fx, fy, cx, cy and coefficients, (4 + N,).
+    #[getter]
+    fn std1<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        flat_out(py, &camera_std(&self.inner.left))
+    }
+
+    /// Standard deviations of the second camera's parameters, (4 + N,).
+    #[getter]
+    fn std2<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        flat_out(py, &camera_std(&self.inner.right))
+    }
+
+    /// The rig's parameters ``[rotation (3), T (3)]`` in the ``rotation`` parameterization, (6,).
+    #[getter]
+    fn rig_params<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        flat_out(py, &self.inner.rig_params)
+    }
+
+    /// Standard deviations of ``rig_params`` (radians, board units), (6,).
+    #[getter]
+    fn rig_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        flat_out(py, &self.inner.rig_std)
+    }
+
+    /// ``|T|``, board units.
+    #[getter]
+    fn baseline(&self) -> f64 {
+        self.inner.baseline
+    }
+
+    /// Rotation parameterization of ``rig_params``.
+    #[getter]
+    fn rotation(&self) -> &'static str {
+        self.inner.rotation.name()
+    }
+
+    /// Board-to-first-camera rotations (Rodrigues), one (3, 1) array per used pair.
+    #[getter]
+    fn rvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        convert::list_out(
+            py,
+            self.inner
+                .pairs
+                .iter()
+                .map(|p| rvec_tvec(py, &p.left_pose).0),
+        )
+    }
+
+    /// Board-to-first-camera translations, one (3, 1) array per used pair.
+    #[getter]
+    fn tvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        convert::list_out(
+            py,
+            self.inner
+                .pairs
+                .iter()
+                .map(|p| rvec_tvec(py, &p.left_pose).1),
+        )
+    }
+
+    /// RMS of each used pair's first and second view, pixels, (pairs, 2) (cv2's
+    /// ``perViewErrors``).
+    #[getter]
+    fn per_view_rms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = self
+            .inner
+            .pairs
+            .iter()
+            .map(|p| vec![p.rms_left, p.rms_right])
+            .collect();
+        Ok(PyArray2::from_vec2(py, &rows).unwrap_or_else(|_| PyArray2::zeros(py, [0, 2], false)))
+    }
+
+    /// Input index of each used pair.
+    #[getter]
+    fn pair_indices(&self) -> Vec<usize> {
+        self.inner.pairs.iter().map(|p| p.index).collect()
+    }
+
+    /// Pairs left out, as (input index, reason).
+    #[getter]
+    fn skipped_pairs(&self) -> Vec<(usize, String)> {
+        self.inner
+            .skipped_pairs
+            .iter()
+            .map(|s| (s.index, s.reason.clone()))
+            .collect()
+    }
+
+    /// Lens models of the two cameras.
+    #[getter]
+    fn models(&self) -> (&'static str, &'static str) {
+        (
+            self.inner.left.camera.model.name(),
+            self.inner.right.camera.model.name(),
+        )
+    }
+
+    /// Number of points rejected as outliers.
+    #[getter]
+    fn num_rejected(&self) -> usize {
+        self.inner.num_rejected
+    }
+
+    /// What deserves attention (list of :class:`CalibrationWarning`).
+    #[getter]
+    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        warnings_out(py, &self.inner.warnings)
+    }
+
+    /// The joint Levenberg-Marquardt report as a dict.
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.inner.to_json()["solver"])
+    }
+
+    /// Wall time in seconds.
+    #[getter]
+    fn elapsed(&self) -> f64 {
+        self.inner.elapsed.as_secs_f64()
+    }
+
+    /// A human summary with +- 3 sigma.
+    fn summary(&self) -> String {
+        self.inner.summary()
+    }
+
+    /// The result as JSON text (``calib-stereo-result``, what ``calib stereo -o`` writes).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string_pretty(&self.inner.to_json()).map_err(calibration_error)
+    }
+
+    fn __len__(&self) -> usize {
+        9
+    }
+
+    fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
+        let i = if index < 0 { index + 9 } else { index };
+        if !(0..9).contains(&i) {
+            return Err(PyIndexError::new_err(
+                "StereoCalibration index out of range",
+            ));
+        }
+        self.tuple(py)?.get_item(i as usize)
+    }
+
+    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(self.tuple(py)?.try_iter()?.into_any())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "StereoCalibration(models=({:?}, {:?}), rms={:.5}, baseline={:.4}, pairs={}, warnings={})",
+            self.inner.left.camera.model.name(),
+            self.inner.right.camera.model.name(),
+            self.inner.rms,
+            self.inner.baseline,
+            self.inner.pairs.len(),
+            self.inner.warnings.len()
+        )
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(stereo_calibrate, m)?)?;
+    m.add_class::<StereoCalibrationResult>()?;
+    Ok(())
+}
