@@ -214,7 +214,9 @@ fn pair_item(d: &Bound<'_, PyDict>, key: &str) -> PyResult<(Option<String>, Opti
 /// A calibration dict (the form `read_calibration` returns) as the crate's type.
 fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
     let size = convert::image_size(&item(d, "image_size")?, "calibration['image_size']")?;
-    if d.contains("R")? {
+    let stereo =
+        d.contains("R")? || d.contains("K1")? || str_item(d, "kind")?.as_deref() == Some("stereo");
+    if stereo {
         let size2 = match d.get_item("image_size2")? {
             Some(v) if !v.is_none() => convert::image_size(&v, "calibration['image_size2']")?,
             _ => size,

@@ -212,6 +212,8 @@ def test_export_options_and_errors(stereo, single, tmp_path):
         calib.write_calibration(tmp_path / "x.yaml", [1, 2, 3])
     with pytest.raises(ValueError, match="the dict has no key 'dist'"):
         calib.write_calibration(tmp_path / "x.yaml", {"K": single.K, "image_size": (640, 360)})
+    with pytest.raises(ValueError, match="the dict has no key 'D1'"):
+        calib.write_calibration(tmp_path / "x.yaml", {"K1": single.K, "image_size": (640, 360)})
     rational = {"K": single.K, "dist": np.zeros(8), "image_size": (640, 360)}
     with pytest.raises(calib.CalibrationError, match="kalibr format has no equivalent of the rational8"):
         calib.write_calibration(tmp_path / "x.yaml", rational, "kalibr")
