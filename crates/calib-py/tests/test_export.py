@@ -226,3 +226,37 @@ def test_export_options_and_errors(stereo, single, tmp_path):
     obs = DATA / "sourishg1/left.json"
     with pytest.raises(calib.CalibrationError):
         calib.read_calibration(obs)
+
+
+def test_stereo_rectify_fisheye_bit_for_bit(tmp_path):
+    """A fisheye (Kannala-Brandt) rig through an OpenCV file: calib rectify on the file written by
+    write_calibration gives stereo_rectify's numbers."""
+    K = np.array([[300.0, 0, 320.5], [0, 301.0, 180.25], [0, 0, 1]])
+    rig = {"K1": K, "D1": [0.01, -0.004, 0.001, -0.0002], "K2": K * [[1.01], [1.0], [1]],
+           "D2": [0.02, -0.003, 0.0, 0.0001], "R": _rotation([0.01, -0.02, 0.005]),
+           "T": [-60.0, 0.5, 1.0], "image_size": (640, 360),
+           "models": ("kannala-brandt4", "kannala-brandt4")}
+    path = tmp_path / "fisheye.yaml"
+    calib.write_calibration(path, rig, "opencv")
+    back = calib.read_calibration(path)
+    assert back["models"] == rig["models"]
+    out = tmp_path / "rect-kb.json"
+    run_calib("rectify", path, "--alpha", 0.5, "-o", out)
+    expected = json.loads(out.read_text())
+    got = calib.stereo_rectify(back["K1"], back["D1"], back["K2"], back["D2"], back["image_size"],
+                               back["R"], back["T"], 0.5, model="kannala-brandt4")
+    for name, a in zip(["R1", "R2", "P1", "P2", "Q"], got[:5]):
+        assert np.array_equal(a, np.array(expected[name])), name
+    assert list(got[5]) == expected["roi1"] and list(got[6]) == expected["roi2"]
+    # Without model=, four coefficients are read as Brown-Conrady: other numbers.
+    plain = calib.stereo_rectify(back["K1"], back["D1"], back["K2"], back["D2"], (640, 360),
+                                 back["R"], back["T"], 0.5)
+    assert not np.array_equal(plain[2], got[2])
+
+
+def _rotation(rvec):
+    rvec = np.asarray(rvec, dtype=float)
+    theta = np.linalg.norm(rvec)
+    k = rvec / theta
+    S = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(theta) * S + (1 - np.cos(theta)) * S @ S
