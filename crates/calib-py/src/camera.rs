@@ -11,7 +11,7 @@ use pyo3::types::PyDict;
 
 /// The model a coefficient vector of `n` values implies (cv2's convention; 4 is Brown-Conrady,
 /// so a fisheye camera must name its model).
-fn model_for(n: usize) -> PyResult<CameraModel> {
+pub(crate) fn model_for(n: usize) -> PyResult<CameraModel> {
     CameraModel::ALL
         .into_iter()
         .find(|m| !m.is_fisheye() && m.num_distortion_params() == n)

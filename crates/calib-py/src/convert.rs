@@ -283,6 +283,17 @@ pub fn mat3_out<'py>(py: Python<'py>, m: &Matrix3<f64>) -> Bound<'py, PyArray2<f
     PyArray2::from_vec2(py, &rows).expect("3x3")
 }
 
+/// An `R x C` matrix as an `(R, C)` float64 array (cv2's `P1`, `P2`, `Q`).
+pub fn matrix_out<'py, const R: usize, const C: usize>(
+    py: Python<'py>,
+    m: &nalgebra::SMatrix<f64, R, C>,
+) -> Bound<'py, PyArray2<f64>> {
+    let rows: Vec<Vec<f64>> = (0..R)
+        .map(|i| (0..C).map(|j| m[(i, j)]).collect())
+        .collect();
+    PyArray2::from_vec2(py, &rows).expect("rows of equal length")
+}
+
 /// A column vector as an `(N, 1)` float64 array (cv2's `rvec`, `tvec`, `T`).
 pub fn column_out<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray2<f64>> {
     let rows: Vec<Vec<f64>> = v.iter().map(|&x| vec![x]).collect();

@@ -3,14 +3,15 @@
 //! it). The functions take and return NumPy arrays in the shapes OpenCV's Python functions use.
 //!
 //! The bindings add no algorithm: each function converts its arguments, calls one function of
-//! `calib-single`, `calib-stereo`, `calib-rig`, `board-detect` or `camera-model` with the GIL
-//! released, and converts the result. Errors of the Rust crates become `calib.CalibrationError`
+//! `calib-single`, `calib-stereo`, `calib-rig`, `board-detect`, `camera-model` or `calib-export`
+//! with the GIL released, and converts the result. Errors of the Rust crates become `calib.CalibrationError`
 //! with the crates' messages; bad arguments become `TypeError` / `ValueError` naming the argument.
 //! Documentation: `docs/python.md`.
 
 mod camera;
 mod convert;
 mod detect;
+mod export;
 mod options;
 mod rig;
 mod single;
@@ -88,5 +89,6 @@ fn calib_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     rig::register(m)?;
     detect::register(m)?;
     camera::register(m)?;
+    export::register(m)?;
     Ok(())
 }

@@ -34,7 +34,8 @@ def test_stubs_cover_the_module():
 
 def test_docstrings_and_version():
     for name in ["calibrate_camera", "stereo_calibrate", "calibrate_rig", "detect_chessboard",
-                 "undistort_points", "imread_gray", "board_points"]:
+                 "undistort_points", "imread_gray", "board_points", "stereo_rectify",
+                 "write_calibration", "read_calibration"]:
         f = getattr(calib, name)
         assert f.__doc__ and len(f.__doc__) > 100, name
         assert f.__text_signature__, name

@@ -1,10 +1,11 @@
 """Camera calibration from NumPy arrays, shaped like OpenCV's functions.
 
 Single cameras (:func:`calibrate_camera`), stereo pairs (:func:`stereo_calibrate`), rigs of N
-cameras (:func:`calibrate_rig`), chessboard detection (:func:`detect_chessboard`) and
-undistortion (:func:`undistort_points`). The work is done by the project's Rust crates (the
-extension module ``calib._calib``) with the GIL released; failures raise
-:class:`CalibrationError` with the Rust message. See docs/python.md.
+cameras (:func:`calibrate_rig`), chessboard detection (:func:`detect_chessboard`),
+undistortion (:func:`undistort_points`), stereo rectification (:func:`stereo_rectify`) and the
+OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
+is done by the project's Rust crates (the extension module ``calib._calib``) with the GIL
+released; failures raise :class:`CalibrationError` with the Rust message. See docs/python.md.
 
     rms, K, dist, rvecs, tvecs = calib.calibrate_camera(object_points, image_points, (w, h))
 """
@@ -22,8 +23,11 @@ from ._calib import (
     calibrate_rig,
     detect_chessboard,
     imread_gray,
+    read_calibration,
     stereo_calibrate,
+    stereo_rectify,
     undistort_points,
+    write_calibration,
 )
 
 __all__ = [
@@ -39,6 +43,9 @@ __all__ = [
     "calibrate_rig",
     "detect_chessboard",
     "imread_gray",
+    "read_calibration",
     "stereo_calibrate",
+    "stereo_rectify",
     "undistort_points",
+    "write_calibration",
 ]

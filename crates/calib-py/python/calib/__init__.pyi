@@ -364,3 +364,53 @@ def undistort_points(
 ) -> npt.NDArray[np.float64]:
     """Ideal normalized coordinates (or pixels of P) of distorted pixels, like
     cv2.undistortPoints; NaN where the model cannot be inverted."""
+
+def stereo_rectify(
+    K1: npt.ArrayLike,
+    D1: Optional[npt.ArrayLike],
+    K2: npt.ArrayLike,
+    D2: Optional[npt.ArrayLike],
+    image_size: ImageSize,
+    R: npt.ArrayLike,
+    T: npt.ArrayLike,
+    alpha: Optional[float] = -1.0,
+    *,
+    model: Optional[ModelName] = None,
+    model2: Optional[ModelName] = None,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    tuple[int, int, int, int],
+    tuple[int, int, int, int],
+]:
+    """Bouguet's stereo rectification like cv2.stereoRectify (CALIB_ZERO_DISPARITY), for every
+    lens model: ``R1, R2`` (3, 3), ``P1, P2`` (3, 4), ``Q`` (4, 4) and the valid regions
+    ``roi1, roi2`` as (x, y, width, height). ``alpha`` -1 or None is OpenCV's default scaling,
+    0 to 1 the free scaling. Bit for bit the numbers of ``calib rectify``."""
+
+ExportFormat = Literal["opencv", "ros", "kalibr"]
+
+CalibrationDict = dict[str, Any]
+"""What read_calibration returns. One camera: ``kind="single"``, ``name``, ``model``,
+``image_size``, ``K`` (3, 3), ``dist`` (1, N). A stereo rig: ``kind="stereo"``, ``names``,
+``models``, ``image_size``, ``image_size2``, ``K1``, ``D1``, ``K2``, ``D2``, ``R`` (3, 3),
+``T`` (3, 1)."""
+
+def write_calibration(
+    path: Union[str, PathLike[str]],
+    calibration: Union[CameraCalibration, StereoCalibration, Mapping[str, Any]],
+    format: ExportFormat = "opencv",
+    *,
+    alpha: Optional[float] = 0.0,
+    translation_scale: float = 1.0,
+) -> list[str]:
+    """Writes a calibration as OpenCV FileStorage, ROS camera_info (a stereo rig: STEM-left.EXT
+    and STEM-right.EXT) or Kalibr camchain YAML, like ``calib export``; returns the files
+    written."""
+
+def read_calibration(path: Union[str, PathLike[str]]) -> CalibrationDict:
+    """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo result JSON (the
+    kind is recognized from the content), as a dict (see CalibrationDict)."""

@@ -1,0 +1,381 @@
+//! After calibration (crate `calib-export`): `stereo_rectify` (Bouguet's rectification, shaped
+//! like cv2.stereoRectify) and `write_calibration` / `read_calibration` (OpenCV FileStorage, ROS
+//! camera_info and Kalibr camchain YAML, and `calib` result JSON).
+
+use crate::calibration_error;
+use crate::camera::model_for;
+use crate::convert::{self, column_out, mat3_out, matrix_out, row_out};
+use crate::options;
+use crate::rig::RigCalibrationResult;
+use crate::single::CameraCalibration as CameraResult;
+use crate::stereo::StereoCalibrationResult;
+use calib_core::ImageSize;
+use calib_export::{Calibrated, CameraCalibration, ExportOptions, Format, StereoRig};
+use camera_model::AnyCamera;
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use std::path::PathBuf;
+
+/// `alpha` as the crate's option: `None` or -1 is OpenCV's default scaling, else 0 to 1.
+fn alpha_option(alpha: Option<f64>) -> PyResult<Option<f64>> {
+    match alpha {
+        None => Ok(None),
+        Some(-1.0) => Ok(None),
+        Some(a) if (0.0..=1.0).contains(&a) => Ok(Some(a)),
+        Some(a) => Err(PyValueError::new_err(format!(
+            "alpha: expected 0 to 1, or -1 / None for OpenCV's default scaling, got {a}"
+        ))),
+    }
+}
+
+/// A camera from `K`, coefficients and a model name (`None`: inferred from the coefficient
+/// count, as in `undistort_points`).
+fn camera(
+    k: &Bound<'_, PyAny>,
+    dist: &Bound<'_, PyAny>,
+    model: Option<&str>,
+    k_what: &str,
+    d_what: &str,
+    model_what: &str,
+) -> PyResult<AnyCamera> {
+    let coefficients = if dist.is_none() {
+        Vec::new()
+    } else {
+        convert::vector(dist, d_what)?
+    };
+    let model = match model {
+        Some(name) => options::model(Some(name), model_what)?,
+        None if coefficients.is_empty() => camera_model::CameraModel::BrownConrady4,
+        None => model_for(coefficients.len()).map_err(|_| {
+            PyValueError::new_err(format!(
+                "{d_what}: {} coefficients match no pinhole model (4, 5, 8 or 12); give {model_what}=",
+                coefficients.len()
+            ))
+        })?,
+    };
+    // cv2 accepts an empty (or None) distortion vector for "no distortion".
+    let coefficients = if coefficients.is_empty() {
+        vec![0.0; model.num_distortion_params()]
+    } else {
+        coefficients
+    };
+    let intrinsics = convert::intrinsics_from_k(k, k_what)?;
+    AnyCamera::new(model, intrinsics, coefficients)
+        .map_err(|e| PyValueError::new_err(format!("{d_what}: {e}")))
+}
+
+/// A stereo rig from cv2-style arguments.
+#[allow(clippy::too_many_arguments)]
+fn rig(
+    k1: &Bound<'_, PyAny>,
+    d1: &Bound<'_, PyAny>,
+    k2: &Bound<'_, PyAny>,
+    d2: &Bound<'_, PyAny>,
+    image_size: ImageSize,
+    image_size2: ImageSize,
+    r: &Bound<'_, PyAny>,
+    t: &Bound<'_, PyAny>,
+    model: Option<&str>,
+    model2: Option<&str>,
+    names: (String, String),
+) -> PyResult<StereoRig> {
+    let left = camera(k1, d1, model, "K1", "D1", "model")?;
+    let right = camera(k2, d2, model2.or(model), "K2", "D2", "model2")?;
+    let pose = convert::pose(r, t, "rig")?;
+    Ok(StereoRig {
+        left: CameraCalibration {
+            name: names.0,
+            camera: left,
+            image_size,
+        },
+        right: CameraCalibration {
+            name: names.1,
+            camera: right,
+            image_size: image_size2,
+        },
+        rotation: pose.rotation,
+        translation: pose.translation,
+    })
+}
+
+/// Bouguet's stereo rectification, like ``cv2.stereoRectify`` with ``CALIB_ZERO_DISPARITY`` (the
+/// default), for every lens model: the same computation as ``calib rectify``.
+///
+/// ``K1``, ``D1``, ``K2``, ``D2``: the cameras' 3x3 matrices and distortion coefficients (OpenCV's
+/// order; ``None`` or empty for none). ``image_size``: (width, height) of both images. ``R``,
+/// ``T``: the rig, ``X2 = R X1 + T`` (a 3x3 rotation matrix or a rotation vector; ``T`` of 3
+/// values), as :func:`stereo_calibrate` returns it. ``alpha``: free scaling, 0 (only valid pixels
+/// in both rectified images) to 1 (every source pixel kept); -1 or ``None`` is OpenCV's default
+/// (no extra scaling), cv2's default too. ``model`` / ``model2``: the lens models (``None``:
+/// inferred from the number of coefficients, 4 brown-conrady4, 5 brown-conrady5, 8 rational8, 12
+/// thin-prism12; a fisheye camera needs ``model="kannala-brandt4"``; the second camera defaults
+/// to the first's model).
+///
+/// Returns ``R1, R2, P1, P2, Q, roi1, roi2`` as cv2.stereoRectify does: rotations (3, 3) into the
+/// rectified frames, projection matrices (3, 4) in the rectified left frame (``P2[0, 3] = f *
+/// baseline``), the disparity-to-depth matrix (4, 4), and the valid pixel regions ``(x, y, width,
+/// height)``. Raises ``ValueError`` / ``TypeError`` for bad arguments and
+/// :class:`CalibrationError` when the rig cannot be rectified (e.g. an image corner that cannot
+/// be undistorted).
+#[pyfunction]
+#[pyo3(signature = (K1, D1, K2, D2, image_size, R, T, alpha=-1.0, *, model=None, model2=None))]
+#[allow(non_snake_case, clippy::too_many_arguments)]
+fn stereo_rectify<'py>(
+    py: Python<'py>,
+    K1: &Bound<'py, PyAny>,
+    D1: &Bound<'py, PyAny>,
+    K2: &Bound<'py, PyAny>,
+    D2: &Bound<'py, PyAny>,
+    image_size: &Bound<'py, PyAny>,
+    R: &Bound<'py, PyAny>,
+    T: &Bound<'py, PyAny>,
+    alpha: Option<f64>,
+    model: Option<&str>,
+    model2: Option<&str>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let alpha = alpha_option(alpha)?;
+    let size = convert::image_size(image_size, "image_size")?;
+    let rig = rig(
+        K1,
+        D1,
+        K2,
+        D2,
+        size,
+        size,
+        R,
+        T,
+        model,
+        model2,
+        ("left".into(), "right".into()),
+    )?;
+    let rect = py
+        .detach(|| calib_export::stereo_rectify(&rig, alpha))
+        .map_err(calibration_error)?;
+    let roi = |r: [u32; 4]| PyTuple::new(py, r);
+    PyTuple::new(
+        py,
+        [
+            mat3_out(py, &rect.r1).into_any(),
+            mat3_out(py, &rect.r2).into_any(),
+            matrix_out(py, &rect.p1).into_any(),
+            matrix_out(py, &rect.p2).into_any(),
+            matrix_out(py, &rect.q).into_any(),
+            roi(rect.roi1)?.into_any(),
+            roi(rect.roi2)?.into_any(),
+        ],
+    )
+}
+
+/// The format named `name`.
+fn format(name: &str) -> PyResult<Format> {
+    name.parse()
+        .map_err(|e| PyValueError::new_err(format!("format: {e}")))
+}
+
+/// An item of a calibration dict, or a `ValueError` naming the missing key.
+fn item<'py>(d: &Bound<'py, PyDict>, key: &str) -> PyResult<Bound<'py, PyAny>> {
+    d.get_item(key)?.ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "calibration: the dict has no key '{key}' (see read_calibration for its keys)"
+        ))
+    })
+}
+
+/// An optional string item.
+fn str_item(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Option<String>> {
+    match d.get_item(key)? {
+        Some(v) if !v.is_none() => v.extract().map(Some).map_err(|_| {
+            PyTypeError::new_err(format!(
+                "calibration['{key}']: expected a string, got {}",
+                convert::type_name(&v)
+            ))
+        }),
+        _ => Ok(None),
+    }
+}
+
+/// An optional pair of strings (`names`, `models`).
+fn pair_item(d: &Bound<'_, PyDict>, key: &str) -> PyResult<(Option<String>, Option<String>)> {
+    match d.get_item(key)? {
+        Some(v) if !v.is_none() => {
+            let (a, b): (String, String) = v.extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "calibration['{key}']: expected two strings, got {}",
+                    v.repr().map(|r| r.to_string()).unwrap_or_default()
+                ))
+            })?;
+            Ok((Some(a), Some(b)))
+        }
+        _ => Ok((None, None)),
+    }
+}
+
+/// A calibration dict (the form `read_calibration` returns) as the crate's type.
+fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
+    let size = convert::image_size(&item(d, "image_size")?, "calibration['image_size']")?;
+    let stereo =
+        d.contains("R")? || d.contains("K1")? || str_item(d, "kind")?.as_deref() == Some("stereo");
+    if stereo {
+        let size2 = match d.get_item("image_size2")? {
+            Some(v) if !v.is_none() => convert::image_size(&v, "calibration['image_size2']")?,
+            _ => size,
+        };
+        let (name1, name2) = pair_item(d, "names")?;
+        let (model1, model2) = pair_item(d, "models")?;
+        let rig = rig(
+            &item(d, "K1")?,
+            &item(d, "D1")?,
+            &item(d, "K2")?,
+            &item(d, "D2")?,
+            size,
+            size2,
+            &item(d, "R")?,
+            &item(d, "T")?,
+            model1.as_deref(),
+            model2.as_deref(),
+            (
+                name1.unwrap_or_else(|| "left".into()),
+                name2.unwrap_or_else(|| "right".into()),
+            ),
+        )?;
+        Ok(Calibrated::Stereo(rig))
+    } else {
+        let model = str_item(d, "model")?;
+        let camera = camera(
+            &item(d, "K")?,
+            &item(d, "dist")?,
+            model.as_deref(),
+            "calibration['K']",
+            "calibration['dist']",
+            "calibration['model']",
+        )?;
+        Ok(Calibrated::Single(CameraCalibration {
+            name: str_item(d, "name")?.unwrap_or_else(|| "camera".into()),
+            camera,
+            image_size: size,
+        }))
+    }
+}
+
+/// What `write_calibration` can write: a result of `calibrate_camera` or `stereo_calibrate`, or
+/// a dict of `read_calibration`'s form.
+fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
+    if let Ok(c) = obj.cast::<CameraResult>() {
+        return Ok(Calibrated::Single(CameraCalibration::from(&c.get().inner)));
+    }
+    if let Ok(s) = obj.cast::<StereoCalibrationResult>() {
+        return Ok(Calibrated::Stereo(StereoRig::from(&s.get().inner)));
+    }
+    if obj.cast::<RigCalibrationResult>().is_ok() {
+        return Err(PyTypeError::new_err(
+            "calibration: a RigCalibration cannot be written in these formats yet (results of calibrate_camera and stereo_calibrate, and dicts of read_calibration's form, can)",
+        ));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        return from_dict(d);
+    }
+    Err(PyTypeError::new_err(format!(
+        "calibration: expected a CameraCalibration, a StereoCalibration or a dict of read_calibration's form, got {}",
+        convert::type_name(obj)
+    )))
+}
+
+/// Writes a calibration in another tool's format, like ``calib export`` (and ``--export`` of
+/// ``calib single`` / ``calib stereo``).
+///
+/// ``path``: the file (a ``str`` or ``os.PathLike``). ``calibration``: a result of
+/// :func:`calibrate_camera` or :func:`stereo_calibrate`, or a dict of the form
+/// :func:`read_calibration` returns (single: ``K``, ``dist``, ``image_size``, optional ``model``
+/// and ``name``; stereo: ``K1``, ``D1``, ``K2``, ``D2``, ``R``, ``T``, ``image_size``, optional
+/// ``image_size2``, ``models``, ``names``). ``format``: ``"opencv"`` (FileStorage YAML, what
+/// cv2.FileStorage reads), ``"ros"`` (camera_info YAML; a stereo rig writes ``STEM-left.EXT``
+/// and ``STEM-right.EXT``) or ``"kalibr"`` (camchain YAML). ``alpha``: free scaling of the
+/// rectification written with a stereo rig (OpenCV, ROS) and of a single camera's ROS
+/// projection matrix, 0 to 1, or -1 / ``None`` for OpenCV's default; default 0 as in
+/// ``calib export``. ``translation_scale``: multiplies translations (0.001 for a board in
+/// millimetres when ROS or Kalibr expect metres).
+///
+/// Each file is written atomically. Returns the paths written (``str``). Raises
+/// :class:`CalibrationError` when the format cannot hold the calibration (e.g. a lens model
+/// Kalibr has no equivalent of) or a file cannot be written.
+#[pyfunction]
+#[pyo3(signature = (path, calibration, format="opencv", *, alpha=0.0, translation_scale=1.0))]
+fn write_calibration(
+    py: Python<'_>,
+    path: PathBuf,
+    calibration: &Bound<'_, PyAny>,
+    format: &str,
+    alpha: Option<f64>,
+    translation_scale: f64,
+) -> PyResult<Vec<String>> {
+    let format = self::format(format)?;
+    let calibrated = calibrated(calibration)?;
+    let options = ExportOptions::new(alpha_option(alpha)?, translation_scale)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let written = py
+        .detach(|| calib_export::export(&calibrated, format, &path, &options))
+        .map_err(calibration_error)?;
+    Ok(written
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect())
+}
+
+/// One camera's entries of a calibration dict.
+fn camera_items(d: &Bound<'_, PyDict>, c: &CameraCalibration, k: &str, dist: &str) -> PyResult<()> {
+    let py = d.py();
+    d.set_item(k, mat3_out(py, &c.matrix()))?;
+    d.set_item(dist, row_out(py, &c.camera.distortion))?;
+    Ok(())
+}
+
+/// Reads a calibration file of any kind ``calib`` reads: an OpenCV FileStorage YAML, a ROS
+/// camera_info YAML, a Kalibr camchain, or a result JSON of ``calib single`` / ``calib stereo``
+/// (or ``to_json()`` of a result). The kind is recognized from the content.
+///
+/// Returns a dict. One camera: ``kind="single"``, ``name``, ``model`` (e.g.
+/// ``"brown-conrady5"``), ``image_size`` (width, height), ``K`` (3, 3), ``dist`` (1, N) in
+/// OpenCV's order. A stereo rig: ``kind="stereo"``, ``names`` and ``models`` (pairs),
+/// ``image_size`` and ``image_size2``, ``K1``, ``D1``, ``K2``, ``D2``, ``R`` (3, 3) and ``T`` (3, 1)
+/// with ``X2 = R X1 + T``. :func:`write_calibration` takes the dict back. Raises
+/// :class:`CalibrationError` naming the file and key at fault.
+#[pyfunction]
+fn read_calibration(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
+    let calibrated = py
+        .detach(|| calib_export::read_calibration(&path))
+        .map_err(calibration_error)?;
+    let d = PyDict::new(py);
+    let size = |s: ImageSize| (s.width, s.height);
+    match &calibrated {
+        Calibrated::Single(c) => {
+            d.set_item("kind", "single")?;
+            d.set_item("name", &c.name)?;
+            d.set_item("model", c.camera.model.name())?;
+            d.set_item("image_size", size(c.image_size))?;
+            camera_items(&d, c, "K", "dist")?;
+        }
+        Calibrated::Stereo(s) => {
+            d.set_item("kind", "stereo")?;
+            d.set_item("names", (&s.left.name, &s.right.name))?;
+            d.set_item(
+                "models",
+                (s.left.camera.model.name(), s.right.camera.model.name()),
+            )?;
+            d.set_item("image_size", size(s.left.image_size))?;
+            d.set_item("image_size2", size(s.right.image_size))?;
+            camera_items(&d, &s.left, "K1", "D1")?;
+            camera_items(&d, &s.right, "K2", "D2")?;
+            d.set_item("R", mat3_out(py, &s.rotation))?;
+            d.set_item("T", column_out(py, s.translation.as_slice()))?;
+        }
+    }
+    Ok(d)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(stereo_rectify, m)?)?;
+    m.add_function(wrap_pyfunction!(write_calibration, m)?)?;
+    m.add_function(wrap_pyfunction!(read_calibration, m)?)?;
+    Ok(())
+}
