@@ -681,9 +681,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         format!(
             "The model is one-to-one over the whole image: it stays valid out to {} from the principal point, the farthest image corner being {:.0} px away (validity coverage {:.2}).",
             if validity.valid_radius_px.is_finite() {
-                let shown = if validity.valid_radius_px
-                    < camera.image_size.width.max(camera.image_size.height) as f64
-                {
+                let shown = if validity.valid_radius_px < validity.image_radius_px {
                     "black dashes where the circle crosses the image"
                 } else {
                     "outside the image"

@@ -330,6 +330,9 @@ fn distortion_plot_shows_the_validity_radius() {
     let (validity, page, svg) = report(-0.2, "valid");
     assert!(validity.covers_image(0.0), "{validity:?}");
     assert!(page.contains("one-to-one over the whole image"));
+    // 1 + 3 k1 r^2 > 0 out to 645 px: the circle lies beyond the corners (400 px).
+    assert!(validity.valid_radius_px > validity.image_radius_px);
+    assert!(page.contains("(outside the image)"), "{page}");
     assert!(!svg.contains("#FF0000"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
