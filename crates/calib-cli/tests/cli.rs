@@ -846,8 +846,9 @@ fn reports_from_results_and_calibrate_commands() {
     assert_eq!(run.status.code(), Some(1));
 }
 
-/// Rig results have no export, report or file start yet (docs/after-calibration.md, "Rigs"):
-/// every such request is refused with a message, none silently ignored.
+/// Rig results have no export or report yet (docs/after-calibration.md, "Rigs"): every such
+/// request is refused with a message, none silently ignored. (Known cameras from files,
+/// `--intrinsics NAME=FILE`, are tested in tests/rig.rs.)
 #[test]
 fn rigs_refuse_what_they_do_not_have_yet() {
     let input = temp("norig-obs.json");
@@ -865,7 +866,6 @@ fn rigs_refuse_what_they_do_not_have_yet() {
             "--report".to_string(),
             temp("norig-report").display().to_string(),
         ],
-        vec!["--intrinsics".to_string(), data("sourishg1/left.json")],
     ] {
         let run = calib()
             .arg("rig")
