@@ -47,3 +47,53 @@ fn noise_free_rigs_are_recovered_exactly() {
         }
     }
 }
+
+/// Boards in other units or with their origin far off the board are the same rig: the same RMS
+/// and intrinsics, translations in the board's units (the engine normalizes the board).
+#[test]
+fn board_units_and_origin_do_not_matter() {
+    let config = SyntheticRigConfig {
+        cameras: 3,
+        frames: 30,
+        ..Default::default()
+    };
+    let data = generate_rig(&config).unwrap();
+    let reference = calibrate_rig(&data.observations, &RigOptions::default()).unwrap();
+    for (scale, offset) in [
+        (1000.0, [0.0, 0.0]),
+        (1e-3, [0.0, 0.0]),
+        (1.0, [-5000.0, 2500.0]),
+    ] {
+        let mut moved = data.observations.clone();
+        for frame in &mut moved.frames {
+            for o in &mut frame.observations {
+                for p in &mut o.view.object_points {
+                    *p = nalgebra::Point3::new(
+                        p.x * scale + offset[0],
+                        p.y * scale + offset[1],
+                        0.0,
+                    );
+                }
+            }
+        }
+        let rig = calibrate_rig(&moved, &RigOptions::default()).unwrap();
+        assert!(
+            (rig.rms - reference.rms).abs() < 1e-7,
+            "scale {scale}: {} vs {}",
+            rig.rms,
+            reference.rms
+        );
+        for (a, b) in rig.cameras.iter().zip(&reference.cameras) {
+            let (ka, kb) = (a.estimate.camera.intrinsics, b.estimate.camera.intrinsics);
+            assert!(
+                (ka.fx - kb.fx).abs() < 1e-5 && (ka.cy - kb.cy).abs() < 1e-5,
+                "scale {scale}"
+            );
+            let t = a.transform.translation / scale - b.transform.translation;
+            assert!(
+                t.norm() < 1e-5 * b.transform.translation.norm().max(1.0),
+                "scale {scale}: {t}"
+            );
+        }
+    }
+}
