@@ -84,10 +84,82 @@ pub fn write_exports(
 
 /// Reads the camera of a single-camera calibration file (`what` names the option).
 pub fn read_single_camera(path: &str, what: &str) -> Result<CameraCalibration, Failure> {
-    match read_calibration(Path::new(path)).map_err(|e| Failure(format!("{what}: {e}")))? {
-        Calibrated::Single(c) => Ok(c),
-        Calibrated::Stereo(_) => Err(Failure(format!(
-            "{what} {path}: holds a stereo rig; give a single camera's file (calib stereo takes rigs with --intrinsics, single cameras with --left-intrinsics / --right-intrinsics)"
+    read_camera(path, what, None)
+}
+
+/// Reads one camera from a calibration file: the file's only camera, or, from a stereo or rig
+/// file, the camera named `name` (`what` names the option in messages).
+pub fn read_camera(
+    path: &str,
+    what: &str,
+    name: Option<&str>,
+) -> Result<CameraCalibration, Failure> {
+    let calibrated =
+        read_calibration(Path::new(path)).map_err(|e| Failure(format!("{what}: {e}")))?;
+    match (calibrated, name) {
+        (Calibrated::Single(c), _) => Ok(c),
+        (calibrated, Some(name)) => {
+            let names: Vec<String> = calibrated
+                .cameras()
+                .iter()
+                .map(|c| c.name.clone())
+                .collect();
+            calibrated
+                .cameras()
+                .into_iter()
+                .find(|c| c.name == name)
+                .cloned()
+                .ok_or_else(|| {
+                    Failure(format!(
+                        "{what} {path}: {} without a camera named '{name}' (its cameras: {})",
+                        calibrated.kind(),
+                        names.join(", ")
+                    ))
+                })
+        }
+        (calibrated @ Calibrated::Stereo(_), None) => Err(Failure(format!(
+            "{what} {path}: holds {}; give a single camera's file (calib stereo takes rigs with --intrinsics, single cameras with --left-intrinsics / --right-intrinsics)",
+            calibrated.kind()
+        ))),
+        (calibrated @ Calibrated::Rig(_), None) => Err(Failure(format!(
+            "{what} {path}: holds {}; give a single camera's file, or name the camera (calib undistort --camera NAME; calib rig --intrinsics NAME=FILE takes the camera NAME of a rig file)",
+            calibrated.kind()
+        ))),
+    }
+}
+
+/// The stereo pair `LEFT,RIGHT` (camera names) of a rig, or the stereo rig itself.
+pub fn select_pair(
+    calibrated: Calibrated,
+    pair: Option<&str>,
+    source: &str,
+) -> Result<Calibrated, Failure> {
+    let Some(pair) = pair else {
+        return Ok(calibrated);
+    };
+    let Some((left, right)) = pair.split_once(',') else {
+        return Err(Failure(format!(
+            "--pair {pair}: expected two camera names, LEFT,RIGHT"
+        )));
+    };
+    let (left, right) = (left.trim(), right.trim());
+    match calibrated {
+        Calibrated::Rig(rig) => {
+            let index = |name: &str| {
+                rig.camera_index(name)
+                    .map_err(|e| Failure(format!("--pair {pair}: {source}: {e}")))
+            };
+            let (l, r) = (index(left)?, index(right)?);
+            rig.pair(l, r)
+                .map(Calibrated::Stereo)
+                .map_err(|e| Failure(format!("--pair {pair}: {e}")))
+        }
+        Calibrated::Stereo(s) if s.left.name == left && s.right.name == right => {
+            Ok(Calibrated::Stereo(s))
+        }
+        other => Err(Failure(format!(
+            "--pair {pair}: {source} holds {}, not a rig of several cameras",
+            other.kind()
         ))),
     }
 }
@@ -171,13 +243,19 @@ pub fn check_image_size(
 /// Arguments of `calib export`.
 #[derive(Args, Debug)]
 pub struct ExportArgs {
-    /// A calibration: a result of calib single or calib stereo (JSON), or any exported file.
+    /// A calibration: a result of calib single, calib stereo or calib rig (JSON), or any
+    /// exported file.
     #[arg(value_name = "RESULT")]
     pub input: String,
     /// Format to write: opencv (FileStorage YAML), ros (camera_info YAML; a stereo rig writes
-    /// FILE-left.yaml and FILE-right.yaml), kalibr (camchain YAML).
+    /// FILE-left.yaml and FILE-right.yaml, a rig FILE-NAME.yaml per camera), kalibr (camchain
+    /// YAML).
     #[arg(long, value_name = "FORMAT")]
     pub format: String,
+    /// Of a rig, export the stereo pair of these two cameras (names), with its rectification:
+    /// OpenCV's M1 ... Q, ROS's rectified left and right files.
+    #[arg(long, value_name = "LEFT,RIGHT")]
+    pub pair: Option<String>,
     /// File to write.
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
@@ -219,7 +297,11 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
         .map_err(|e| Failure(format!("--format: {e}")))?;
     let options = ExportOptions::new(alpha_option(args.alpha)?, args.translation_scale)
         .map_err(|e| Failure(e.to_string()))?;
-    let calibrated = read_calibration(Path::new(&args.input))?;
+    let calibrated = select_pair(
+        read_calibration(Path::new(&args.input))?,
+        args.pair.as_deref(),
+        &args.input,
+    )?;
     for path in export_paths(&calibrated, format, &args.output) {
         check_not_input(&path.to_string_lossy(), &[&args.input])?;
     }
@@ -236,9 +318,13 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
 /// Arguments of `calib undistort`.
 #[derive(Args, Debug)]
 pub struct UndistortArgs {
-    /// The camera: a calib single result (JSON) or an exported file (OpenCV, ROS, Kalibr).
+    /// The camera: a calib single result (JSON) or an exported file (OpenCV, ROS, Kalibr); or a
+    /// stereo or rig file with --camera.
     #[arg(value_name = "CAMERA")]
     pub camera: String,
+    /// The camera of a stereo or rig file to undistort for (its name).
+    #[arg(long = "camera", value_name = "NAME")]
+    pub camera_name: Option<String>,
     /// Images to undistort (JPEG or PNG), all of the calibrated size.
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
@@ -332,7 +418,7 @@ fn rows<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> ser
 }
 
 pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
-    let camera = read_single_camera(&args.camera, "CAMERA")?;
+    let camera = read_camera(&args.camera, "CAMERA", args.camera_name.as_deref())?;
     let (k_new, roi) = optimal_new_camera_matrix(&camera.camera, camera.image_size, args.alpha)
         .map_err(|e| Failure(format!("{}: {e}", args.camera)))?;
     std::fs::create_dir_all(&args.output)
@@ -387,9 +473,14 @@ pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
 #[derive(Args, Debug)]
 pub struct RectifyArgs {
     /// The stereo calibration: a calib stereo result (JSON), an OpenCV stereo YAML or a Kalibr
-    /// camchain of two cameras.
+    /// camchain of two cameras; or a rig (calib rig result, OpenCV rig YAML, Kalibr camchain)
+    /// with --pair.
     #[arg(value_name = "STEREO_RESULT")]
     pub input: String,
+    /// Of a rig, rectify the pair of these two cameras (names): LEFT's images with --images,
+    /// RIGHT's with --right.
+    #[arg(long, value_name = "LEFT,RIGHT")]
+    pub pair: Option<String>,
     /// Free scaling: 0 keeps only valid pixels in both rectified images, 1 keeps every source
     /// pixel, -1 is OpenCV's default scaling.
     #[arg(
@@ -420,12 +511,26 @@ pub struct RectifyArgs {
 }
 
 pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
-    let rig = match read_calibration(Path::new(&args.input))? {
+    let calibrated = select_pair(
+        read_calibration(Path::new(&args.input))?,
+        args.pair.as_deref(),
+        &args.input,
+    )?;
+    let rig = match calibrated {
         Calibrated::Stereo(s) => s,
         Calibrated::Single(_) => {
             return Err(Failure(format!(
                 "{}: a single camera; rectification needs a stereo rig",
                 args.input
+            )));
+        }
+        Calibrated::Rig(r) => {
+            let names: Vec<&str> = r.cameras.iter().map(|c| c.name.as_str()).collect();
+            return Err(Failure(format!(
+                "{}: a rig of {} cameras ({}); choose the pair to rectify with --pair LEFT,RIGHT",
+                args.input,
+                names.len(),
+                names.join(", ")
             )));
         }
     };
@@ -522,7 +627,7 @@ pub fn write_report_to(
 /// Arguments of `calib report`.
 #[derive(Args, Debug)]
 pub struct ReportArgs {
-    /// A result of calib single or calib stereo (JSON).
+    /// A result of calib single, calib stereo or calib rig (JSON).
     #[arg(value_name = "RESULT.json")]
     pub input: String,
     /// The observation file the result was calibrated from (from the user or calib detect):
@@ -566,9 +671,17 @@ pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
             None => None,
         };
         calib_export::ReportInput::stereo(&result, observations.as_ref())
+    } else if format.starts_with("calib-rig-result/") {
+        let result = calib_rig::RigCalibration::from_json(value)
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        let observations = match &args.observations {
+            Some(path) => Some(calib_rig::RigObservations::read(path)?),
+            None => None,
+        };
+        calib_export::ReportInput::rig(&result, observations.as_ref())
     } else {
         return Err(Failure(format!(
-            "{name}: not a calib single or calib stereo result (format '{format}')"
+            "{name}: not a calib single, calib stereo or calib rig result (format '{format}')"
         )));
     }
     .map_err(|e| Failure(format!("{name}: {e}")))?;

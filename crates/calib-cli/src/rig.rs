@@ -84,7 +84,7 @@ impl RigArgs {
         for (name, path) in named {
             let c = camera_index(observations, name, "--intrinsics")?;
             let what = format!("--intrinsics {name}={path}");
-            let file = crate::after::read_single_camera(path, &what)?;
+            let file = crate::after::read_camera(path, &what, Some(name))?;
             crate::after::check_image_size(&file, Some(observations.cameras[c].image_size), &what)?;
             if let Some(model) = models[c]
                 && model != file.camera.model
@@ -119,18 +119,6 @@ impl RigArgs {
 }
 
 pub fn run(args: &RigArgs) -> Result<(), Failure> {
-    // Exports and reports cover single cameras and stereo rigs so far; where rigs plug in:
-    // docs/after-calibration.md ("Rigs").
-    for (given, option) in [
-        (!args.output.export.is_empty(), "--export"),
-        (args.output.report.is_some(), "--report"),
-    ] {
-        if given {
-            return Err(Failure(format!(
-                "{option} is not supported by calib rig yet (calib single and calib stereo have it)"
-            )));
-        }
-    }
     args.output.check_against(&[args.input.as_str()])?;
     if looks_like_image(&args.input) {
         return Err(Failure(format!(
@@ -141,8 +129,12 @@ pub fn run(args: &RigArgs) -> Result<(), Failure> {
     let observations = RigObservations::read_bounded(&args.input, args.output.max_input())?;
     let options = args.options(&observations)?;
     let source = args.input.clone();
-    calibrate_and_report(&source, &[args.input.as_str()], &args.output, || {
+    let result = calibrate_and_report(&source, &[args.input.as_str()], &args.output, || {
         calibrate_rig(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
+    if let Some(dir) = &args.output.report {
+        let input = calib_export::ReportInput::rig(&result, Some(&observations))?;
+        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+    }
     Ok(())
 }

@@ -90,7 +90,7 @@ pub trait Report {
     fn summary(&self) -> String;
     /// The JSON form.
     fn to_json(&self) -> Value;
-    /// The calibration for exports (`None`: the result has no export yet, rigs).
+    /// The calibration for exports (`None`: the result cannot be exported).
     fn calibrated(&self) -> Option<calib_export::Calibrated>;
 }
 
@@ -156,10 +156,10 @@ impl Report for calib_rig::RigCalibration {
     fn to_json(&self) -> Value {
         calib_rig::RigCalibration::to_json(self)
     }
-    /// Rig exports are not written yet: where they plug in is in docs/after-calibration.md
-    /// ("Rigs"); `calib rig` refuses `--export` before calibrating.
     fn calibrated(&self) -> Option<calib_export::Calibrated> {
-        None
+        Some(calib_export::Calibrated::Rig(
+            calib_export::CameraRig::from(self),
+        ))
     }
 }
 

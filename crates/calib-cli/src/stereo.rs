@@ -215,6 +215,14 @@ fn camera_files(
                     "--intrinsics {path}: a single camera; give a rig's file, or single cameras' files with --left-intrinsics and --right-intrinsics"
                 )));
             }
+            calib_export::Calibrated::Rig(r) => {
+                let names: Vec<&str> = r.cameras.iter().map(|c| c.name.as_str()).collect();
+                return Err(Failure(format!(
+                    "--intrinsics {path}: a rig of {} cameras ({}); give one pair's file (calib export {path} --pair LEFT,RIGHT --format opencv -o PAIR.yaml)",
+                    names.len(),
+                    names.join(", ")
+                )));
+            }
         }
     }
     for (k, (option, name)) in [

@@ -254,3 +254,144 @@ fn per_camera_models_and_given_intrinsics() {
     assert_eq!(run.status.code(), Some(1));
     assert!(String::from_utf8(run.stderr).unwrap().contains("calib rig"));
 }
+
+/// After `calib rig`: `--export` in every format and `--report` on the calibration itself, the
+/// same files from `calib export` / `calib report` on the result, a pair's stereo file and
+/// rectification (`--pair`), one camera of the rig file as known intrinsics or for undistortion.
+#[test]
+fn rig_results_are_exported_reported_and_read_back() {
+    let input = temp("after-obs.json");
+    run_ok(
+        calib()
+            .args(["synth", "rig", "--cameras", "4", "--views", "24", "-o"])
+            .arg(&input),
+    );
+    let result = temp("after-result.json");
+    let report = temp("after-report");
+    let run = run_ok(
+        calib()
+            .arg("rig")
+            .arg(&input)
+            .arg("-o")
+            .arg(&result)
+            .arg("--export")
+            .arg(format!("opencv={}", temp("after-rig.yaml").display()))
+            .arg("--export")
+            .arg(format!("kalibr={}", temp("after-chain.yaml").display()))
+            .arg("--export")
+            .arg(format!("ros={}", temp("after-ros.yaml").display()))
+            .arg("--report")
+            .arg(&report),
+    );
+    let stdout = String::from_utf8(run.stdout).unwrap();
+    assert!(stdout.contains("after-ros-cam2.yaml (ros)"), "{stdout}");
+    for camera in ["cam0", "cam1", "cam2", "cam3"] {
+        assert!(temp(&format!("after-ros-{camera}.yaml")).exists());
+        assert!(report.join(format!("residuals-{camera}.svg")).exists());
+    }
+    let page = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(page.contains("layout.svg"));
+    // calib export on the result writes the same bytes as --export.
+    for (format, file) in [("opencv", "after-rig.yaml"), ("kalibr", "after-chain.yaml")] {
+        let again = temp(&format!("again-{file}"));
+        run_ok(
+            calib()
+                .arg("export")
+                .arg(&result)
+                .args(["--format", format, "-q", "-o"])
+                .arg(&again),
+        );
+        assert_eq!(
+            std::fs::read(&again).unwrap(),
+            std::fs::read(temp(file)).unwrap(),
+            "{format}"
+        );
+    }
+    // The rig file's camera 'cam1' as known intrinsics: held at exactly those values.
+    let given = temp("after-given.json");
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&input)
+            .arg("--intrinsics")
+            .arg(format!("cam1={}", temp("after-rig.yaml").display()))
+            .arg("-q")
+            .arg("-o")
+            .arg(&given),
+    );
+    let (first, second) = (read(&result), read(&given));
+    assert_eq!(
+        first["cameras"][1]["intrinsics"], second["cameras"][1]["intrinsics"],
+        "cam1 held at the file's values"
+    );
+    assert_eq!(second["cameras"][1]["initial_method"], "given");
+    // A pair: OpenCV's stereo keys, and a rectification.
+    let pair = temp("after-pair.yaml");
+    run_ok(
+        calib()
+            .arg("export")
+            .arg(&result)
+            .args(["--pair", "cam2,cam1", "--format", "opencv", "-q", "-o"])
+            .arg(&pair),
+    );
+    let text = std::fs::read_to_string(&pair).unwrap();
+    for key in [
+        "M1:", "D2:", "\nR:", "\nT:", "\nE:", "\nF:", "R1:", "P2:", "\nQ:",
+    ] {
+        assert!(text.contains(key), "{key} missing");
+    }
+    let rect = temp("after-rect.json");
+    run_ok(
+        calib()
+            .arg("rectify")
+            .arg(temp("after-chain.yaml"))
+            .args(["--pair", "cam0,cam1", "-q", "-o"])
+            .arg(&rect),
+    );
+    assert!(read(&rect).get("P2").is_some());
+    // What needs a pair or a camera name says so, with the names.
+    for args in [
+        vec![
+            "rectify".to_string(),
+            result.display().to_string(),
+            "-o".into(),
+            temp("x.json").display().to_string(),
+        ],
+        vec![
+            "undistort".to_string(),
+            result.display().to_string(),
+            "-o".into(),
+            temp("und").display().to_string(),
+            input.display().to_string(),
+        ],
+        vec![
+            "rectify".to_string(),
+            result.display().to_string(),
+            "--pair".into(),
+            "cam0,cam9".into(),
+            "-o".into(),
+            temp("x.json").display().to_string(),
+        ],
+    ] {
+        let run = calib().args(&args).output().unwrap();
+        assert_eq!(run.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            err.contains("cam0, cam1, cam2, cam3") || err.contains("--camera NAME"),
+            "{args:?}: {err}"
+        );
+    }
+    // calib report on the result with its observations.
+    let again = temp("after-report-again");
+    run_ok(
+        calib()
+            .arg("report")
+            .arg(&result)
+            .arg("--observations")
+            .arg(&input)
+            .arg("-q")
+            .arg("-o")
+            .arg(&again),
+    );
+    assert!(again.join("layout.svg").exists() && again.join("uncertainty-cam2.svg").exists());
+}

@@ -1,6 +1,6 @@
 //! Writing a calibration in another tool's format, and reading any supported file back.
 
-use crate::calibration::{CameraCalibration, StereoRig};
+use crate::calibration::{CameraCalibration, CameraRig, StereoRig};
 use crate::error::ExportError;
 use crate::yaml::{self, Doc};
 use crate::{Calibrated, kalibr, opencv, ros};
@@ -94,24 +94,54 @@ impl ExportOptions {
     }
 }
 
-/// The files of an export to `path`: `path` itself, except ROS stereo, which writes one file
-/// per camera, `STEM-left.EXT` and `STEM-right.EXT` (`out.yaml` gives `out-left.yaml` and
-/// `out-right.yaml`).
+/// The files of an export to `path`: `path` itself, except ROS stereo and rigs, which write
+/// one file per camera: `STEM-left.EXT` and `STEM-right.EXT` for stereo (`out.yaml` gives
+/// `out-left.yaml` and `out-right.yaml`), `STEM-NAME.EXT` for each camera of a rig (characters
+/// other than letters, digits, `_`, `-` and `.` in a name become `_`; `STEM-cam{i}.EXT` if two
+/// names would give the same file).
 pub fn export_paths(calibration: &Calibrated, format: Format, path: &Path) -> Vec<PathBuf> {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let named = |suffixes: Vec<String>| {
+        suffixes
+            .iter()
+            .map(|s| path.with_file_name(format!("{stem}-{s}{ext}")))
+            .collect()
+    };
     match (format, calibration) {
-        (Format::Ros, Calibrated::Stereo(_)) => {
-            let stem = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let ext = path
-                .extension()
-                .map(|e| format!(".{}", e.to_string_lossy()))
-                .unwrap_or_default();
-            ["left", "right"]
+        (Format::Ros, Calibrated::Stereo(_)) => named(vec!["left".into(), "right".into()]),
+        (Format::Ros, Calibrated::Rig(r)) => {
+            let safe: Vec<String> = r
+                .cameras
                 .iter()
-                .map(|side| path.with_file_name(format!("{stem}-{side}{ext}")))
-                .collect()
+                .map(|c| {
+                    c.name
+                        .chars()
+                        .map(|ch| {
+                            if ch.is_ascii_alphanumeric() || matches!(ch, '_' | '-' | '.') {
+                                ch
+                            } else {
+                                '_'
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+            let unique = safe
+                .iter()
+                .enumerate()
+                .all(|(i, s)| !s.is_empty() && !s.starts_with('.') && !safe[..i].contains(s));
+            if unique {
+                named(safe)
+            } else {
+                named((0..safe.len()).map(|i| format!("cam{i}")).collect())
+            }
         }
         _ => vec![path.to_path_buf()],
     }
@@ -151,7 +181,7 @@ pub fn export(
     Ok(paths)
 }
 
-/// Parses a calibration from text: a `calib single` or `calib stereo` result (JSON), an OpenCV
+/// Parses a calibration from text: a `calib single`, `calib stereo` or `calib rig` result (JSON), an OpenCV
 /// FileStorage YAML, a ROS camera_info YAML or a Kalibr camchain. `path` names the source in
 /// errors.
 pub fn parse_calibration(text: &str, path: &str) -> Result<Calibrated, ExportError> {
@@ -177,9 +207,8 @@ pub fn parse_calibration(text: &str, path: &str) -> Result<Calibrated, ExportErr
             let s = calib_stereo::StereoCalibration::from_json(value).map_err(content)?;
             Calibrated::Stereo(StereoRig::from(&s))
         } else if format.starts_with("calib-rig-result/") {
-            return Err(ExportError::Unsupported(format!(
-                "{path}: a calib rig result; rig results cannot be exported or read here yet (calib single and calib stereo results can)"
-            )));
+            let r = calib_rig::RigCalibration::from_json(value).map_err(content)?;
+            Calibrated::Rig(CameraRig::from(&r))
         } else {
             return Err(ExportError::UnknownFormat {
                 path: path.to_string(),

@@ -20,17 +20,20 @@
 //!
 //! `T_cn_cnm1` maps camera `n-1`'s frame to camera `n`'s: for a stereo rig it is `[R | T]`
 //! (`X_right = R X_left + T`), `T` in board units times the export's translation scale (Kalibr
-//! uses metres). Models: `brown-conrady4` is `pinhole` with `radtan`, `kannala-brandt4` is
+//! uses metres). A rig of N cameras is written as the chain `cam0 ... cam{N-1}` in the rig's
+//! camera order, each transform relative to the previous camera, and `cam_overlaps` lists the
+//! cameras that shared views; reading a chain of three or more cameras gives a rig whose
+//! reference is `cam0`. Models: `brown-conrady4` is `pinhole` with `radtan`, `kannala-brandt4` is
 //! `pinhole` with `equidistant`, `brown-conrady5` only with `k3 = 0` (radtan has no k3);
 //! `rational8` and `thin-prism12` have no Kalibr equivalent and give
 //! [`ExportError::UnsupportedModel`]. Kalibr's pixel convention is OpenCV's.
 
-use crate::calibration::{CameraCalibration, StereoRig};
+use crate::calibration::{CameraCalibration, CameraRig, StereoRig};
 use crate::error::ExportError;
 use crate::yaml::{self, Doc};
 use crate::{Calibrated, ExportOptions};
 use calib_core::ImageSize;
-use camera_model::{AnyCamera, CameraModel, Intrinsics};
+use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
 use nalgebra::{Matrix3, Vector3};
 use serde_norway::Value;
 use std::fmt::Write;
@@ -108,8 +111,40 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             camera_block(&mut out, 0, &s.left, &[1], None)?;
             camera_block(&mut out, 1, &s.right, &[0], Some((&s.rotation, &t)))?;
         }
+        Calibrated::Rig(r) => {
+            for (n, camera) in r.cameras.iter().enumerate() {
+                let chain = (n > 0).then(|| {
+                    let t = r.relative(n - 1, n);
+                    (t.rotation, t.translation * options.translation_scale)
+                });
+                camera_block(
+                    &mut out,
+                    n,
+                    camera,
+                    &r.overlaps[n],
+                    chain.as_ref().map(|(r, t)| (r, t)),
+                )
+                .map_err(|e| name_camera(e, n, &camera.name))?;
+            }
+        }
     }
     Ok(out)
+}
+
+/// Says which camera of a rig an error is about (Kalibr names them by index).
+fn name_camera(e: ExportError, index: usize, name: &str) -> ExportError {
+    match e {
+        ExportError::UnsupportedModel {
+            format,
+            model,
+            detail,
+        } => ExportError::UnsupportedModel {
+            format,
+            model,
+            detail: format!("{detail} [camera '{name}', cam{index}]"),
+        },
+        other => other,
+    }
 }
 
 /// True if a parsed document looks like a camchain.
@@ -184,50 +219,125 @@ fn camera(doc: &Doc, v: &Value, key: &str) -> Result<CameraCalibration, ExportEr
     Ok(c)
 }
 
-/// Reads a camchain: `cam0` alone is a single camera, `cam0` and `cam1` a stereo rig (further
-/// cameras are refused until rigs are supported).
-pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
-    let left = camera(doc, v, "cam0")?;
-    if v.get("cam1").is_none() {
-        return Ok(Calibrated::Single(left));
-    }
-    if v.get("cam2").is_some() {
-        return Err(ExportError::Unsupported(format!(
-            "{}: camchains of more than two cameras are not supported yet",
-            doc.path
-        )));
-    }
-    let right = camera(doc, v, "cam1")?;
-    let cam1 = doc.get(v, "", "cam1")?;
-    let rows = cam1
+/// The transform `T_cn_cnm1` of camera block `key`.
+fn chain_transform(doc: &Doc, v: &Value, key: &str) -> Result<Pose, ExportError> {
+    let field = format!("{key}.T_cn_cnm1");
+    let cam = doc.get(v, "", key)?;
+    let rows = cam
         .get("T_cn_cnm1")
         .and_then(Value::as_sequence)
-        .ok_or_else(|| {
-            ExportError::field(
-                doc.path,
-                "cam1.T_cn_cnm1",
-                "missing or not a list of 4 rows",
-            )
-        })?;
+        .ok_or_else(|| ExportError::field(doc.path, &field, "missing or not a list of 4 rows"))?;
     if rows.len() != 4 {
         return Err(ExportError::field(
             doc.path,
-            "cam1.T_cn_cnm1",
+            &field,
             format!("expected 4 rows, got {}", rows.len()),
         ));
     }
     let mut m = [[0.0; 4]; 4];
     for (i, row) in rows.iter().enumerate() {
-        let r = doc.numbers(row, &format!("cam1.T_cn_cnm1[{i}]"), Some(4))?;
+        let r = doc.numbers(row, &format!("{field}[{i}]"), Some(4))?;
         m[i].copy_from_slice(&r);
     }
-    let rig = StereoRig {
-        left,
-        right,
-        rotation: Matrix3::from_fn(|i, k| m[i][k]),
-        translation: Vector3::new(m[0][3], m[1][3], m[2][3]),
+    Ok(Pose::new(
+        Matrix3::from_fn(|i, k| m[i][k]),
+        Vector3::new(m[0][3], m[1][3], m[2][3]),
+    ))
+}
+
+/// The `cam_overlaps` of camera block `key` (indices below `n`), if given.
+fn overlaps(doc: &Doc, v: &Value, key: &str, n: usize) -> Result<Option<Vec<usize>>, ExportError> {
+    let field = format!("{key}.cam_overlaps");
+    let Some(list) = v.get(key).and_then(|c| c.get("cam_overlaps")) else {
+        return Ok(None);
     };
-    rig.check()
-        .map_err(|e| ExportError::field(doc.path, "cam1.T_cn_cnm1", e.to_string()))?;
-    Ok(Calibrated::Stereo(rig))
+    let numbers = doc.numbers(list, &field, None)?;
+    numbers
+        .iter()
+        .map(|&x| {
+            if x >= 0.0 && x.fract() == 0.0 && (x as usize) < n {
+                Ok(x as usize)
+            } else {
+                Err(ExportError::field(
+                    doc.path,
+                    &field,
+                    format!(
+                        "{x} is not the index of another camera (cam0..cam{})",
+                        n - 1
+                    ),
+                ))
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
+/// Reads a camchain: `cam0` alone is a single camera, `cam0` and `cam1` a stereo rig, three
+/// or more consecutive cameras a rig with `cam0` as reference.
+pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
+    let mut keys = Vec::new();
+    while v.get(format!("cam{}", keys.len())).is_some() {
+        keys.push(format!("cam{}", keys.len()));
+    }
+    if let Some(extra) = v.as_mapping().and_then(|m| {
+        m.keys()
+            .filter_map(Value::as_str)
+            .find(|k| {
+                k.starts_with("cam")
+                    && k[3..].parse::<usize>().is_ok()
+                    && !keys.iter().any(|c| c == k)
+            })
+            .map(str::to_string)
+    }) {
+        return Err(ExportError::field(
+            doc.path,
+            &extra,
+            format!(
+                "the cameras must be numbered cam0, cam1, ... without gaps (cam{} is missing)",
+                keys.len()
+            ),
+        ));
+    }
+    let cameras = keys
+        .iter()
+        .map(|k| camera(doc, v, k))
+        .collect::<Result<Vec<_>, _>>()?;
+    match cameras.len() {
+        1 => Ok(Calibrated::Single(
+            cameras.into_iter().next().expect("one camera"),
+        )),
+        2 => {
+            let t = chain_transform(doc, v, "cam1")?;
+            let mut cameras = cameras.into_iter();
+            let rig = StereoRig {
+                left: cameras.next().expect("two cameras"),
+                right: cameras.next().expect("two cameras"),
+                rotation: t.rotation,
+                translation: t.translation,
+            };
+            rig.check()
+                .map_err(|e| ExportError::field(doc.path, "cam1.T_cn_cnm1", e.to_string()))?;
+            Ok(Calibrated::Stereo(rig))
+        }
+        n => {
+            let mut transforms = vec![Pose::identity()];
+            for k in &keys[1..] {
+                let t = chain_transform(doc, v, k)?;
+                crate::calibration::check_rotation(&t.rotation, &format!("{k}.T_cn_cnm1"))
+                    .map_err(|e| {
+                        ExportError::field(doc.path, &format!("{k}.T_cn_cnm1"), e.to_string())
+                    })?;
+                let previous = *transforms.last().expect("cam0");
+                transforms.push(t.compose(&previous));
+            }
+            let mut rig = CameraRig::new(cameras, transforms, 0)
+                .map_err(|e| ExportError::field(doc.path, "cam0", e.to_string()))?;
+            for (i, k) in keys.iter().enumerate() {
+                if let Some(o) = overlaps(doc, v, k, n)? {
+                    rig.overlaps[i] = o.into_iter().filter(|&j| j != i).collect();
+                }
+            }
+            Ok(Calibrated::Rig(rig))
+        }
+    }
 }

@@ -29,12 +29,12 @@ pub mod ros;
 pub mod undistort;
 mod yaml;
 
-pub use calibration::{Calibrated, CameraCalibration, StereoRig};
+pub use calibration::{Calibrated, CameraCalibration, CameraRig, StereoRig};
 pub use error::ExportError;
 pub use files::{
     ExportOptions, Format, export, export_paths, export_texts, parse_calibration, read_calibration,
 };
 pub use rectify::{Rectification, stereo_rectify};
 pub use remap::{PixelMap, remap_image};
-pub use report::{ReportInput, write_report};
+pub use report::{ReportInput, RigLayout, write_report};
 pub use undistort::{Rect, optimal_new_camera_matrix, undistort_point, undistort_points};

@@ -30,8 +30,33 @@
 //! `T`) plus `E`, `F` and the rectification `R1`, `R2`, `P1`, `P2`, `Q`
 //! ([`crate::rectify::stereo_rectify`] with the export's `alpha`), and `distortion_model_1`,
 //! `distortion_model_2`.
+//!
+//! A rig of N cameras (OpenCV has no layout of its own for it) is one map per camera,
+//! `camera_0 ... camera_{N-1}`, each with the single camera's keys, its `name`, and `R`, `T`:
+//! the camera's transform from the reference camera, `X_cam = R X_ref + T`:
+//!
+//! ```text
+//! rig_cameras: 3
+//! reference_camera: 0
+//! camera_0:
+//!    name: "left"
+//!    image_width: 640
+//!    image_height: 480
+//!    distortion_model: "brown-conrady4"
+//!    camera_matrix: !!opencv-matrix
+//!       rows: 3
+//!       ...
+//!    distortion_coefficients: !!opencv-matrix ...
+//!    R: !!opencv-matrix ...
+//!    T: !!opencv-matrix ...
+//! camera_1:
+//!    ...
+//! ```
+//!
+//! (`cv2.FileStorage(path, cv2.FILE_STORAGE_READ).getNode("camera_1").getNode("R").mat()`.)
+//! The pair files of `M1 ... Q` for two cameras of a rig come from `calib export --pair`.
 
-use crate::calibration::{CameraCalibration, StereoRig, intrinsics_of};
+use crate::calibration::{CameraCalibration, CameraRig, StereoRig, intrinsics_of};
 use crate::error::ExportError;
 use crate::rectify::stereo_rectify;
 use crate::yaml::{self, Doc};
@@ -52,14 +77,32 @@ fn matrix(
     cols: usize,
     data: &[f64],
 ) -> Result<(), ExportError> {
+    nested_matrix(out, "", name, rows, cols, data)
+}
+
+/// [`matrix`] inside a map: every line starts with `indent`.
+fn nested_matrix(
+    out: &mut String,
+    indent: &str,
+    name: &str,
+    rows: usize,
+    cols: usize,
+    data: &[f64],
+) -> Result<(), ExportError> {
     yaml::check_finite(name, data)?;
     let items: Vec<String> = data.iter().map(|v| yaml::float(*v)).collect();
+    let i = format!("{indent}   ");
     let _ = writeln!(
         out,
-        "{name}: !!opencv-matrix\n   rows: {rows}\n   cols: {cols}\n   dt: d\n   data: [ {} ]",
+        "{indent}{name}: !!opencv-matrix\n{i}rows: {rows}\n{i}cols: {cols}\n{i}dt: d\n{i}data: [ {} ]",
         items.join(", ")
     );
     Ok(())
+}
+
+/// A string scalar OpenCV's parser takes: double-quoted, JSON escapes.
+fn quoted(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
 }
 
 fn row_major<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> Vec<f64> {
@@ -115,6 +158,31 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
             matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
         }
+        Calibrated::Rig(r) => {
+            let _ = writeln!(out, "rig_cameras: {}", r.cameras.len());
+            let _ = writeln!(out, "reference_camera: {}", r.reference);
+            for (i, (c, t)) in r.cameras.iter().zip(&r.transforms).enumerate() {
+                let _ = writeln!(out, "camera_{i}:");
+                let _ = writeln!(out, "   name: {}", quoted(&c.name));
+                let _ = writeln!(out, "   image_width: {}", c.image_size.width);
+                let _ = writeln!(out, "   image_height: {}", c.image_size.height);
+                let _ = writeln!(out, "   distortion_model: \"{}\"", c.camera.model);
+                let ind = "   ";
+                nested_matrix(
+                    &mut out,
+                    ind,
+                    "camera_matrix",
+                    3,
+                    3,
+                    &row_major(&c.matrix()),
+                )?;
+                let d = &c.camera.distortion;
+                nested_matrix(&mut out, ind, "distortion_coefficients", 1, d.len(), d)?;
+                nested_matrix(&mut out, ind, "R", 3, 3, &row_major(&t.rotation))?;
+                let tr = t.translation * options.translation_scale;
+                nested_matrix(&mut out, ind, "T", 3, 1, tr.as_slice())?;
+            }
+        }
     }
     Ok(out)
 }
@@ -130,7 +198,9 @@ pub(crate) fn scaled_rig(s: &StereoRig, scale: f64) -> StereoRig {
 pub(crate) fn recognizes(text: &str, v: &Value) -> bool {
     let tagged = text.contains("!!opencv-matrix");
     (yaml::has_opencv_directive(text) || tagged)
-        && (v.get("camera_matrix").is_some() || v.get("M1").is_some())
+        && (v.get("camera_matrix").is_some()
+            || v.get("M1").is_some()
+            || v.get("rig_cameras").is_some())
 }
 
 /// The model of `count` coefficients named `name` (if any) in a file.
@@ -161,40 +231,123 @@ pub(crate) fn model_of(
     }
 }
 
+/// The camera under keys `k_key`, `d_key`, `model_key` of map `v` (`prefix` is the map's key
+/// in messages, empty at the top level).
+#[allow(clippy::too_many_arguments)]
 fn camera(
     doc: &Doc,
     v: &Value,
+    prefix: &str,
     name: &str,
     k_key: &str,
     d_key: &str,
     model_key: &str,
     size: ImageSize,
 ) -> Result<CameraCalibration, ExportError> {
-    let (_, _, k) = doc.matrix(doc.get(v, "", k_key)?, k_key, Some((3, 3)))?;
-    let (rows, cols, d) = doc.matrix(doc.get(v, "", d_key)?, d_key, None)?;
+    let (k_field, d_field) = (yaml::join(prefix, k_key), yaml::join(prefix, d_key));
+    let (_, _, k) = doc.matrix(doc.get(v, prefix, k_key)?, &k_field, Some((3, 3)))?;
+    let (rows, cols, d) = doc.matrix(doc.get(v, prefix, d_key)?, &d_field, None)?;
     if rows != 1 && cols != 1 {
         return Err(ExportError::field(
             doc.path,
-            d_key,
+            &d_field,
             format!("expected a vector, got {rows}x{cols}"),
         ));
     }
-    let model = model_of(doc, v.get(model_key), model_key, d.len())?;
+    let model = model_of(
+        doc,
+        v.get(model_key),
+        &yaml::join(prefix, model_key),
+        d.len(),
+    )?;
     let k = Matrix3::from_row_slice(&k);
     let camera = AnyCamera::new(model, intrinsics_of(&k), d)
-        .map_err(|e| ExportError::field(doc.path, d_key, e.to_string()))?;
+        .map_err(|e| ExportError::field(doc.path, &d_field, e.to_string()))?;
     let c = CameraCalibration {
         name: name.into(),
         camera,
         image_size: size,
     };
     c.check()
-        .map_err(|e| ExportError::field(doc.path, k_key, e.to_string()))?;
+        .map_err(|e| ExportError::field(doc.path, &k_field, e.to_string()))?;
     Ok(c)
+}
+
+/// A rotation and a 3-vector under `r_key`, `t_key` of map `v`.
+fn rotation_translation(
+    doc: &Doc,
+    v: &Value,
+    prefix: &str,
+    r_key: &str,
+    t_key: &str,
+) -> Result<(Matrix3<f64>, Vector3<f64>), ExportError> {
+    let t_field = yaml::join(prefix, t_key);
+    let (_, _, r) = doc.matrix(
+        doc.get(v, prefix, r_key)?,
+        &yaml::join(prefix, r_key),
+        Some((3, 3)),
+    )?;
+    let (rows, cols, t) = doc.matrix(doc.get(v, prefix, t_key)?, &t_field, None)?;
+    if rows * cols != 3 {
+        return Err(ExportError::field(
+            doc.path,
+            &t_field,
+            format!("expected 3 numbers, got {rows}x{cols}"),
+        ));
+    }
+    Ok((Matrix3::from_row_slice(&r), Vector3::from_row_slice(&t)))
+}
+
+/// Reads the `camera_0 ... camera_{N-1}` maps of a rig file.
+fn read_rig(doc: &Doc, v: &Value) -> Result<CameraRig, ExportError> {
+    let n = doc.size(doc.get(v, "", "rig_cameras")?, "rig_cameras")? as usize;
+    if !(2..=10_000).contains(&n) {
+        return Err(ExportError::field(
+            doc.path,
+            "rig_cameras",
+            format!("expected 2 or more cameras, got {n}"),
+        ));
+    }
+    let reference = match v.get("reference_camera") {
+        Some(r) => doc.size(r, "reference_camera")? as usize,
+        None => 0,
+    };
+    let mut cameras = Vec::with_capacity(n);
+    let mut transforms = Vec::with_capacity(n);
+    for i in 0..n {
+        let key = format!("camera_{i}");
+        let node = doc.get(v, "", &key)?;
+        let field = |k: &str| yaml::join(&key, k);
+        let size = ImageSize::new(
+            doc.size(doc.get(node, &key, "image_width")?, &field("image_width"))?,
+            doc.size(doc.get(node, &key, "image_height")?, &field("image_height"))?,
+        );
+        let name = match node.get("name") {
+            Some(n) => doc.string(n, &field("name"))?.to_string(),
+            None => key.clone(),
+        };
+        cameras.push(camera(
+            doc,
+            node,
+            &key,
+            &name,
+            "camera_matrix",
+            "distortion_coefficients",
+            "distortion_model",
+            size,
+        )?);
+        let (r, t) = rotation_translation(doc, node, &key, "R", "T")?;
+        transforms.push(camera_model::Pose::new(r, t));
+    }
+    CameraRig::new(cameras, transforms, reference)
+        .map_err(|e| ExportError::field(doc.path, "rig_cameras", e.to_string()))
 }
 
 /// Reads an OpenCV file written by [`write`] (or by OpenCV with these keys).
 pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
+    if v.get("rig_cameras").is_some() {
+        return read_rig(doc, v).map(Calibrated::Rig);
+    }
     let width = doc.size(doc.get(v, "", "image_width")?, "image_width")?;
     let height = doc.size(doc.get(v, "", "image_height")?, "image_height")?;
     let size = ImageSize::new(width, height);
@@ -206,22 +359,14 @@ pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
             ),
             _ => size,
         };
-        let left = camera(doc, v, "left", "M1", "D1", "distortion_model_1", size)?;
-        let right = camera(doc, v, "right", "M2", "D2", "distortion_model_2", size2)?;
-        let (_, _, r) = doc.matrix(doc.get(v, "", "R")?, "R", Some((3, 3)))?;
-        let (rows, cols, t) = doc.matrix(doc.get(v, "", "T")?, "T", None)?;
-        if rows * cols != 3 {
-            return Err(ExportError::field(
-                doc.path,
-                "T",
-                format!("expected 3 numbers, got {rows}x{cols}"),
-            ));
-        }
+        let left = camera(doc, v, "", "left", "M1", "D1", "distortion_model_1", size)?;
+        let right = camera(doc, v, "", "right", "M2", "D2", "distortion_model_2", size2)?;
+        let (rotation, translation) = rotation_translation(doc, v, "", "R", "T")?;
         let rig = StereoRig {
             left,
             right,
-            rotation: Matrix3::from_row_slice(&r),
-            translation: Vector3::from_row_slice(&t),
+            rotation,
+            translation,
         };
         rig.check()
             .map_err(|e| ExportError::field(doc.path, "R", e.to_string()))?;
@@ -230,6 +375,7 @@ pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
         Ok(Calibrated::Single(camera(
             doc,
             v,
+            "",
             "camera",
             "camera_matrix",
             "distortion_coefficients",

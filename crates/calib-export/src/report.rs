@@ -73,6 +73,19 @@ pub struct ReportInput {
     pub summary: String,
     /// The cameras.
     pub cameras: Vec<ReportCamera>,
+    /// The layout of a rig (stereo or N cameras), drawn once for the whole page; `None` for a
+    /// single camera.
+    pub layout: Option<RigLayout>,
+}
+
+/// Where a rig's cameras and boards are, in the reference camera's frame.
+#[derive(Debug, Clone)]
+pub struct RigLayout {
+    /// Each camera's transform from the reference camera, `X_cam = R X_ref + T`, in the order
+    /// of [`ReportInput::cameras`].
+    pub transforms: Vec<Pose>,
+    /// The board's pose in each frame, board to reference camera.
+    pub boards: Vec<Pose>,
 }
 
 fn fixed_indices(camera: &AnyCamera, names: &[String]) -> Vec<usize> {
@@ -190,6 +203,7 @@ impl ReportInput {
                 fixed: fixed_indices(&result.camera, &result.fixed_parameters),
                 views,
             }],
+            layout: None,
         })
     }
 
@@ -274,6 +288,104 @@ impl ReportInput {
             title: "Stereo calibration".into(),
             summary: result.summary(),
             cameras,
+            layout: Some(RigLayout {
+                transforms: vec![Pose::identity(), result.rig],
+                boards: result.pairs.iter().map(|p| p.left_pose).collect(),
+            }),
+        })
+    }
+    /// The report of a rig result (one section per camera; a camera's pose in a frame is the
+    /// frame's board pose in the reference camera composed with the camera's rig transform).
+    /// The observations, if given, must be the file the rig was calibrated from.
+    pub fn rig(
+        result: &calib_rig::RigCalibration,
+        observations: Option<&calib_rig::RigObservations>,
+    ) -> Result<Self, ExportError> {
+        if let Some(o) = observations
+            && o.cameras.len() != result.cameras.len()
+        {
+            return Err(observation_mismatch(&format!(
+                "{} cameras in the file, {} in the result",
+                o.cameras.len(),
+                result.cameras.len()
+            )));
+        }
+        let mut cameras = Vec::with_capacity(result.cameras.len());
+        for (c, rig_camera) in result.cameras.iter().enumerate() {
+            let estimate = &rig_camera.estimate;
+            let name = if estimate.name.is_empty() {
+                format!("camera {c}")
+            } else {
+                estimate.name.clone()
+            };
+            let mut views = Vec::new();
+            for frame in &result.frames {
+                let Some(view) = frame.views.iter().find(|v| v.camera == c) else {
+                    continue;
+                };
+                let pose = rig_camera.transform.compose(&frame.pose);
+                let what = format!("frame {} (camera '{name}')", frame.index);
+                let observed = match observations {
+                    Some(o) => Some(
+                        o.frames
+                            .get(frame.index)
+                            .and_then(|f| f.observations.iter().find(|x| x.camera == c))
+                            .ok_or_else(|| observation_mismatch(&format!("no {what}")))?,
+                    ),
+                    None => None,
+                };
+                let points = match observed {
+                    Some(obs) => {
+                        if view
+                            .rejected_points
+                            .iter()
+                            .any(|&i| i >= obs.view.object_points.len())
+                        {
+                            return Err(observation_mismatch(&format!("{what} has fewer points")));
+                        }
+                        let points = (
+                            obs.view.object_points.clone(),
+                            obs.view.image_points.iter().map(|q| q.coords).collect(),
+                        );
+                        check_view_rms(
+                            &estimate.camera,
+                            &pose,
+                            &points,
+                            &view.rejected_points,
+                            view.rms,
+                            &what,
+                        )?;
+                        Some(points)
+                    }
+                    None => None,
+                };
+                views.push(ReportView {
+                    name: observed
+                        .map(|o| o.view.name.clone())
+                        .filter(|n| !n.is_empty())
+                        .unwrap_or_else(|| format!("frame {}", frame.index)),
+                    pose,
+                    rms: view.rms,
+                    points,
+                    rejected: view.rejected_points.clone(),
+                });
+            }
+            cameras.push(ReportCamera {
+                name,
+                camera: estimate.camera.clone(),
+                image_size: estimate.image_size,
+                fixed: fixed_indices(&estimate.camera, &estimate.fixed_parameters),
+                views,
+            });
+        }
+        Ok(ReportInput {
+            title: format!("Rig calibration ({} cameras)", result.cameras.len()),
+            summary: result.summary(),
+            cameras,
+            layout: Some(RigLayout {
+                transforms: result.cameras.iter().map(|c| c.transform).collect(),
+                boards: result.frames.iter().map(|f| f.pose).collect(),
+            }),
         })
     }
 }
@@ -432,6 +544,26 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
     })?;
     let mut written = Vec::new();
     let mut sections = String::new();
+    if let Some(layout) = &input.layout {
+        let text = layout_svg(input, layout)
+            .map_err(|e| ExportError::invalid("report of the rig layout", e.to_string()))?;
+        let file = "layout.svg";
+        let path = dir.join(file);
+        calib_core::write_atomically(&path, text.as_bytes()).map_err(|source| {
+            ExportError::Write {
+                path: path.display().to_string(),
+                source,
+            }
+        })?;
+        written.push(path);
+        let _ = writeln!(
+            sections,
+            "<h2>Rig</h2>\n<figure><h3>Rig layout</h3><img src=\"{file}\" alt=\"Rig layout\"><figcaption>{}</figcaption></figure>",
+            html(
+                "Every camera (frustum, labelled) and the board in every frame (dots at the board origin, coloured by frame), in the reference camera's frame (board units), seen from above (from the reference camera's -y, its 'up'). Check that the cameras stand where they are mounted: a camera on the wrong side or facing away means mislabelled images or cameras."
+            )
+        );
+    }
     for camera in &input.cameras {
         let (plots, notes) = camera_plots(camera).map_err(|e| {
             ExportError::invalid(format!("report of camera '{}'", camera.name), e.to_string())
@@ -798,6 +930,108 @@ fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
                 c.draw_series(std::iter::once(PathElement::new(
                     b.iter().map(to).collect::<Vec<_>>(),
                     col.stroke_width(2),
+                )))?;
+            }
+            Ok(())
+        },
+        (640, 560),
+    )
+}
+
+/// The rig's cameras and the boards, in 3-D, in the reference camera's frame.
+fn layout_svg(input: &ReportInput, layout: &RigLayout) -> DrawResult<String> {
+    // Camera centres and viewing directions in the reference frame: C = -R^T T, d = R^T z.
+    let centres: Vec<Vector3<f64>> = layout
+        .transforms
+        .iter()
+        .map(|t| t.inverse().translation)
+        .collect();
+    let origins: Vec<Vector3<f64>> = layout.boards.iter().map(|b| b.translation).collect();
+    let all = || centres.iter().chain(&origins);
+    let mut lo = Vector3::repeat(f64::MAX);
+    let mut hi = Vector3::repeat(f64::MIN);
+    for p in all() {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let span = (hi - lo).amax().max(1e-6);
+    let baseline = centres
+        .iter()
+        .flat_map(|a| centres.iter().map(move |b| (a - b).norm()))
+        .filter(|d| *d > 0.0)
+        .fold(f64::MAX, f64::min);
+    let depth = if baseline.is_finite() && baseline < f64::MAX {
+        (0.5 * baseline).min(0.15 * span)
+    } else {
+        0.15 * span
+    }
+    .max(1e-3 * span);
+    // One scale on every axis (a cube around the middle), so angles look like angles.
+    let half = 0.5 * span + 0.05 * span + depth;
+    let mid = 0.5 * (lo + hi);
+    let to = |p: &Vector3<f64>| (p.x, -p.y, p.z);
+    let (x0, x1) = (mid.x - half, mid.x + half);
+    let (y0, y1) = (-mid.y - half, -mid.y + half);
+    let (z0, z1) = (mid.z - half, mid.z + half);
+    svg(
+        |root| {
+            let mut c = ChartBuilder::on(root)
+                .caption(
+                    "cameras and boards (reference camera frame)",
+                    ("sans-serif", 16),
+                )
+                .margin(10)
+                .build_cartesian_3d(x0..x1, y0..y1, z0..z1)?;
+            c.with_projection(|mut p| {
+                p.pitch = 1.0;
+                p.yaw = 0.3;
+                p.scale = 0.75;
+                p.into_matrix()
+            });
+            c.configure_axes().draw()?;
+            let n = origins.len().max(1);
+            c.draw_series(
+                origins
+                    .iter()
+                    .enumerate()
+                    .map(|(i, o)| Circle::new(to(o), 3, colour(i as f64 / n as f64).filled())),
+            )?;
+            for (camera, t) in input.cameras.iter().zip(&layout.transforms) {
+                let back = t.inverse();
+                let k = camera.camera.intrinsics;
+                let (w, h) = (
+                    camera.image_size.width as f64,
+                    camera.image_size.height as f64,
+                );
+                let centre = back.translation;
+                let corners: Vec<Vector3<f64>> = [
+                    (0.0, 0.0),
+                    (w - 1.0, 0.0),
+                    (w - 1.0, h - 1.0),
+                    (0.0, h - 1.0),
+                ]
+                .iter()
+                .map(|&(u, v)| {
+                    let ray = Vector3::new((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+                    back.rotation * (ray / ray.norm() * depth) + centre
+                })
+                .collect();
+                for corner in &corners {
+                    c.draw_series(std::iter::once(PathElement::new(
+                        vec![to(&centre), to(corner)],
+                        BLACK.stroke_width(2),
+                    )))?;
+                }
+                let mut ring: Vec<(f64, f64, f64)> = corners.iter().map(to).collect();
+                ring.push(ring[0]);
+                c.draw_series(std::iter::once(PathElement::new(
+                    ring,
+                    BLACK.stroke_width(2),
+                )))?;
+                c.draw_series(std::iter::once(Text::new(
+                    camera.name.clone(),
+                    to(&centre),
+                    ("sans-serif", 14).into_font().color(&BLUE),
                 )))?;
             }
             Ok(())

@@ -135,19 +135,28 @@ fn quote(name: &str) -> String {
     }
 }
 
-/// The camera_info texts: one for a single camera, left and right for a rig.
+/// The camera_info of a camera without rectification: identity `R`, `P = [K' | 0]` with `K'`
+/// the new camera matrix of `alpha` (0 when `None`).
+fn unrectified(c: &CameraCalibration, alpha: Option<f64>) -> Result<String, ExportError> {
+    let (k, _) = optimal_new_camera_matrix(&c.camera, c.image_size, alpha.unwrap_or(0.0))?;
+    let p = Matrix3x4::from_fn(|i, j| if j < 3 { k[(i, j)] } else { 0.0 });
+    write_camera(c, &Matrix3::identity(), &p)
+}
+
+/// The camera_info texts: one for a single camera, left and right (rectified) for a stereo
+/// rig, one per camera (unrectified, in the rig's order) for an N-camera rig.
 pub fn write(
     calibration: &Calibrated,
     options: &ExportOptions,
 ) -> Result<Vec<String>, ExportError> {
     calibration.check()?;
     match calibration {
-        Calibrated::Single(c) => {
-            let (k, _) =
-                optimal_new_camera_matrix(&c.camera, c.image_size, options.alpha.unwrap_or(0.0))?;
-            let p = Matrix3x4::from_fn(|i, j| if j < 3 { k[(i, j)] } else { 0.0 });
-            Ok(vec![write_camera(c, &Matrix3::identity(), &p)?])
-        }
+        Calibrated::Single(c) => Ok(vec![unrectified(c, options.alpha)?]),
+        Calibrated::Rig(r) => r
+            .cameras
+            .iter()
+            .map(|c| unrectified(c, options.alpha))
+            .collect(),
         Calibrated::Stereo(s) => {
             let rect = stereo_rectify(s, options.alpha)?;
             let mut p2 = rect.p2;

@@ -345,3 +345,219 @@ fn result_json_files_are_read_like_exports() {
     assert_eq!(c.camera, result.camera);
     assert_eq!(c.image_size, result.image_size);
 }
+
+/// A rig of four cameras (models mixed, the reference not first, names a file system would
+/// mangle) with transforms far from the identity.
+fn four_camera_rig(models: [CameraModel; 4]) -> calib_export::CameraRig {
+    let names = ["front left", "front/right", "back", "top"];
+    let cameras = models
+        .iter()
+        .zip(names)
+        .enumerate()
+        .map(|(i, (&m, n))| camera(m, n, 0.1 + 0.27 * i as f64))
+        .collect();
+    let reference = 1;
+    let transforms = (0..4)
+        .map(|i| {
+            if i == reference {
+                camera_model::Pose::identity()
+            } else {
+                let a = i as f64;
+                camera_model::Pose::new(
+                    AxisAngle::matrix(&Vector3::new(0.3 * a - 0.1, 1.2 - 0.7 * a, 0.05 * a)),
+                    Vector3::new(-93.8412 * a, 11.9213 - a, 42.8511 * a - 70.0),
+                )
+            }
+        })
+        .collect();
+    calib_export::CameraRig::new(cameras, transforms, reference).unwrap()
+}
+
+/// `a` and `b` describe the same rig: cameras bit for bit, and every camera's transform
+/// relative to every other within `tolerance` (rotation entries; translations relative to the
+/// rig's size): Kalibr's chain composes transforms, which rounds.
+fn same_rig(a: &calib_export::CameraRig, b: &calib_export::CameraRig, tolerance: f64, what: &str) {
+    assert_eq!(a.cameras.len(), b.cameras.len(), "{what}");
+    for (x, y) in a.cameras.iter().zip(&b.cameras) {
+        same_camera(x, y, what);
+    }
+    let size = a
+        .transforms
+        .iter()
+        .map(|t| t.translation.norm())
+        .fold(1.0, f64::max);
+    for i in 0..a.cameras.len() {
+        for j in 0..a.cameras.len() {
+            let (p, q) = (a.relative(i, j), b.relative(i, j));
+            let dr = (p.rotation - q.rotation).amax();
+            let dt = (p.translation - q.translation).amax() / size;
+            assert!(
+                dr <= tolerance && dt <= tolerance,
+                "{what}: camera {i} to {j}: rotation {dr:e}, translation {dt:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn rigs_round_trip_through_opencv_and_kalibr_and_give_one_ros_file_per_camera() {
+    let options = ExportOptions::default();
+    let bc4 = [CameraModel::BrownConrady4; 4];
+    let mixed = [
+        CameraModel::BrownConrady4,
+        CameraModel::KannalaBrandt4,
+        CameraModel::BrownConrady4,
+        CameraModel::KannalaBrandt4,
+    ];
+    let all = [
+        CameraModel::ThinPrism12,
+        CameraModel::Rational8,
+        CameraModel::BrownConrady5,
+        CameraModel::KannalaBrandt4,
+    ];
+    // OpenCV holds every model, and the rig as written (same reference, same transforms).
+    for models in [bc4, mixed, all] {
+        let rig = four_camera_rig(models);
+        let calibrated = Calibrated::Rig(rig.clone());
+        let text = &export_texts(&calibrated, Format::OpenCv, &options).unwrap()[0];
+        assert!(text.starts_with("%YAML:1.0\n---\nrig_cameras: 4\nreference_camera: 1\n"));
+        let Calibrated::Rig(back) = parse_calibration(text, "rig.yaml").unwrap() else {
+            panic!("not read back as a rig")
+        };
+        assert_eq!(back, rig, "opencv {models:?}");
+    }
+    // Kalibr: a chain from cam0 (its reference), radtan and equidistant only.
+    let rig = four_camera_rig(mixed);
+    let calibrated = Calibrated::Rig(rig.clone());
+    let text = &export_texts(&calibrated, Format::Kalibr, &options).unwrap()[0];
+    for k in 0..4 {
+        assert!(text.contains(&format!("\ncam{k}:\n")) || text.starts_with("cam0:\n"));
+    }
+    assert_eq!(text.matches("T_cn_cnm1").count(), 3);
+    let Calibrated::Rig(back) = parse_calibration(text, "camchain.yaml").unwrap() else {
+        panic!("not read back as a rig")
+    };
+    assert_eq!(back.reference, 0);
+    for (c, original) in back.cameras.iter().zip(&rig.cameras) {
+        let renamed = CameraCalibration {
+            name: c.name.clone(),
+            ..original.clone()
+        };
+        same_camera(&renamed, c, "kalibr");
+    }
+    let names: Vec<&str> = back.cameras.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["cam0", "cam1", "cam2", "cam3"]);
+    let mut renamed = rig.clone();
+    for (c, n) in renamed.cameras.iter_mut().zip(&names) {
+        c.name = n.to_string();
+    }
+    same_rig(&renamed, &back, 1e-14, "kalibr");
+    // A model Kalibr cannot hold names the camera.
+    let err = export_texts(
+        &Calibrated::Rig(four_camera_rig(all)),
+        Format::Kalibr,
+        &options,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("front left") && err.contains("cam0"), "{err}");
+    // ROS: one camera_info per camera, file names from the camera names.
+    let rig = four_camera_rig(bc4);
+    let calibrated = Calibrated::Rig(rig.clone());
+    let paths =
+        calib_export::export_paths(&calibrated, Format::Ros, std::path::Path::new("d/ros.yaml"));
+    let files: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    assert_eq!(
+        files,
+        [
+            "d/ros-front_left.yaml",
+            "d/ros-front_right.yaml",
+            "d/ros-back.yaml",
+            "d/ros-top.yaml"
+        ]
+    );
+    let texts = export_texts(&calibrated, Format::Ros, &options).unwrap();
+    assert_eq!(texts.len(), 4);
+    for (text, original) in texts.iter().zip(&rig.cameras) {
+        let Calibrated::Single(c) = parse_calibration(text, "ros.yaml").unwrap() else {
+            panic!("a ROS file is one camera")
+        };
+        assert_eq!(&c, original);
+    }
+}
+
+#[test]
+fn a_pair_of_a_rig_is_the_stereo_rig_between_the_two_cameras() {
+    let rig = four_camera_rig([CameraModel::BrownConrady5; 4]);
+    for (l, r) in [(0, 2), (2, 0), (1, 3), (3, 1)] {
+        let pair = rig.pair(l, r).unwrap();
+        assert_eq!(pair.left, rig.cameras[l]);
+        assert_eq!(pair.right, rig.cameras[r]);
+        // X_r = R X_l + T for a point given in the reference frame.
+        let x_ref = Vector3::new(12.5, -40.0, 900.0);
+        let x_l = rig.transforms[l].rotation * x_ref + rig.transforms[l].translation;
+        let x_r = rig.transforms[r].rotation * x_ref + rig.transforms[r].translation;
+        let via_pair = pair.rotation * x_l + pair.translation;
+        assert!((via_pair - x_r).norm() < 1e-9 * x_r.norm(), "{l} {r}");
+    }
+    assert!(rig.pair(1, 1).is_err());
+    assert!(rig.pair(0, 4).is_err());
+    assert!(
+        rig.camera_index("nobody")
+            .unwrap_err()
+            .to_string()
+            .contains("front left, front/right, back, top")
+    );
+}
+
+#[test]
+fn bad_rigs_and_rig_files_are_refused_by_name() {
+    let good = four_camera_rig([CameraModel::BrownConrady4; 4]);
+    let mut twice = good.clone();
+    twice.cameras[3].name = "back".into();
+    assert!(
+        twice
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("'back' is used twice")
+    );
+    let mut moved = good.clone();
+    moved.transforms[1].translation.x = 1.0;
+    assert!(moved.check().unwrap_err().to_string().contains("identity"));
+    let mut sheared = good.clone();
+    sheared.transforms[2].rotation[(0, 1)] += 0.01;
+    assert!(
+        sheared
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("camera 'back'")
+    );
+    // A camchain with a gap in its numbering.
+    let text = &export_texts(
+        &Calibrated::Rig(good.clone()),
+        Format::Kalibr,
+        &ExportOptions::default(),
+    )
+    .unwrap()[0];
+    let gap = text.replace("cam2:", "cam5:");
+    let err = parse_calibration(&gap, "gap.yaml").unwrap_err().to_string();
+    assert!(
+        err.contains("gap.yaml") && err.contains("cam2 is missing"),
+        "{err}"
+    );
+    // An OpenCV rig file missing a camera's key.
+    let text = &export_texts(
+        &Calibrated::Rig(good),
+        Format::OpenCv,
+        &ExportOptions::default(),
+    )
+    .unwrap()[0];
+    let cut = text.replace("   R: !!opencv-matrix", "   Rot: !!opencv-matrix");
+    let err = parse_calibration(&cut, "cut.yaml").unwrap_err().to_string();
+    assert!(
+        err.contains("cut.yaml") && err.contains("camera_0.R"),
+        "{err}"
+    );
+}

@@ -106,7 +106,8 @@ fn single_and_stereo_reports_reference_existing_well_formed_svgs() {
         &dir.join("stereo"),
     )
     .unwrap();
-    check_report(&dir.join("stereo"), 14);
+    // Seven plots per camera and the rig's layout.
+    check_report(&dir.join("stereo"), 15);
     // A result with the wrong observation file is refused.
     assert!(
         ReportInput::stereo(
@@ -119,6 +120,43 @@ fn single_and_stereo_reports_reference_existing_well_formed_svgs() {
         )
         .is_err()
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn rig_reports_show_every_camera_and_the_layout_and_refuse_other_observations() {
+    let dir = std::env::temp_dir().join(format!("calib-export-rig-report-{}", std::process::id()));
+    let config = calib_rig::synthetic::SyntheticRigConfig {
+        cameras: 3,
+        frames: 24,
+        ..Default::default()
+    };
+    let data = calib_rig::synthetic::generate_rig(&config).unwrap();
+    let result =
+        calib_rig::calibrate_rig(&data.observations, &calib_rig::RigOptions::default()).unwrap();
+    let input = ReportInput::rig(&result, Some(&data.observations)).unwrap();
+    // Each camera's views are its frames, at its pose (the frame's pose through the rig).
+    for (c, camera) in input.cameras.iter().enumerate() {
+        let seen = data
+            .observations
+            .frames
+            .iter()
+            .filter(|f| f.observations.iter().any(|o| o.camera == c))
+            .count();
+        assert_eq!(camera.views.len(), seen, "camera {c}");
+        assert!(camera.views.iter().all(|v| v.points.is_some()));
+    }
+    write_report(&input, &dir.join("rig")).unwrap();
+    check_report(&dir.join("rig"), 1 + 7 * 3);
+    let page = std::fs::read_to_string(dir.join("rig").join("index.html")).unwrap();
+    assert!(page.contains("layout.svg") && page.contains("Rig calibration (3 cameras)"));
+    // Frames out of order: the stored RMS no longer matches, the report refuses the file.
+    let mut shuffled = data.observations.clone();
+    shuffled.frames.rotate_left(1);
+    let err = ReportInput::rig(&result, Some(&shuffled))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("does not match"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -308,6 +346,7 @@ fn distortion_plot_shows_the_validity_radius() {
                     rejected: Vec::new(),
                 }],
             }],
+            layout: None,
         };
         write_report(&input, &dir.join(name)).unwrap();
         let page = std::fs::read_to_string(dir.join(name).join("index.html")).unwrap();

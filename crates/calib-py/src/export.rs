@@ -10,7 +10,7 @@ use crate::rig::RigCalibrationResult;
 use crate::single::CameraCalibration as CameraResult;
 use crate::stereo::StereoCalibrationResult;
 use calib_core::ImageSize;
-use calib_export::{Calibrated, CameraCalibration, ExportOptions, Format, StereoRig};
+use calib_export::{Calibrated, CameraCalibration, CameraRig, ExportOptions, Format, StereoRig};
 use camera_model::AnyCamera;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -211,8 +211,96 @@ fn pair_item(d: &Bound<'_, PyDict>, key: &str) -> PyResult<(Option<String>, Opti
     }
 }
 
+/// The list under `key` of a rig dict, with `n` items.
+fn list_item<'py>(
+    d: &Bound<'py, PyDict>,
+    key: &str,
+    n: Option<usize>,
+) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let v = item(d, key)?;
+    let items: Vec<Bound<'py, PyAny>> = v
+        .try_iter()
+        .and_then(|it| it.collect::<PyResult<Vec<_>>>())
+        .map_err(|_| {
+            PyTypeError::new_err(format!(
+                "calibration['{key}']: expected a list, got {}",
+                convert::type_name(&v)
+            ))
+        })?;
+    if let Some(n) = n
+        && items.len() != n
+    {
+        return Err(PyValueError::new_err(format!(
+            "calibration['{key}']: expected {n} items (one per camera), got {}",
+            items.len()
+        )));
+    }
+    Ok(items)
+}
+
+/// A rig dict (`kind="rig"`, the form `read_calibration` returns) as the crate's type.
+fn rig_from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
+    let names: Vec<String> = list_item(d, "names", None)?
+        .iter()
+        .map(|v| v.extract())
+        .collect::<PyResult<_>>()
+        .map_err(|_| PyTypeError::new_err("calibration['names']: expected a list of strings"))?;
+    let n = names.len();
+    let ks = list_item(d, "Ks", Some(n))?;
+    let dists = list_item(d, "dists", Some(n))?;
+    let sizes = list_item(d, "image_sizes", Some(n))?;
+    let rs = list_item(d, "Rs", Some(n))?;
+    let ts = list_item(d, "Ts", Some(n))?;
+    let models: Vec<Option<String>> = match d.get_item("models")? {
+        Some(v) if !v.is_none() => list_item(d, "models", Some(n))?
+            .iter()
+            .map(|m| m.extract::<Option<String>>())
+            .collect::<PyResult<_>>()
+            .map_err(|_| {
+                PyTypeError::new_err("calibration['models']: expected a list of strings")
+            })?,
+        _ => vec![None; n],
+    };
+    let mut cameras = Vec::with_capacity(n);
+    let mut transforms = Vec::with_capacity(n);
+    for (i, name) in names.into_iter().enumerate() {
+        let camera = camera(
+            &ks[i],
+            &dists[i],
+            models[i].as_deref(),
+            &format!("calibration['Ks'][{i}]"),
+            &format!("calibration['dists'][{i}]"),
+            &format!("calibration['models'][{i}]"),
+        )?;
+        let image_size =
+            convert::image_size(&sizes[i], &format!("calibration['image_sizes'][{i}]"))?;
+        cameras.push(CameraCalibration {
+            name,
+            camera,
+            image_size,
+        });
+        transforms.push(convert::pose(
+            &rs[i],
+            &ts[i],
+            &format!("calibration camera {i}"),
+        )?);
+    }
+    let reference = match d.get_item("reference")? {
+        Some(v) if !v.is_none() => v.extract::<usize>().map_err(|_| {
+            PyTypeError::new_err("calibration['reference']: expected a camera index")
+        })?,
+        _ => 0,
+    };
+    CameraRig::new(cameras, transforms, reference)
+        .map(Calibrated::Rig)
+        .map_err(|e| PyValueError::new_err(format!("calibration: {e}")))
+}
+
 /// A calibration dict (the form `read_calibration` returns) as the crate's type.
 fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
+    if str_item(d, "kind")?.as_deref() == Some("rig") {
+        return rig_from_dict(d);
+    }
     let size = convert::image_size(&item(d, "image_size")?, "calibration['image_size']")?;
     let stereo =
         d.contains("R")? || d.contains("K1")? || str_item(d, "kind")?.as_deref() == Some("stereo");
@@ -258,8 +346,8 @@ fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
     }
 }
 
-/// What `write_calibration` can write: a result of `calibrate_camera` or `stereo_calibrate`, or
-/// a dict of `read_calibration`'s form.
+/// What `write_calibration` can write: a result of `calibrate_camera`, `stereo_calibrate` or
+/// `calibrate_rig`, or a dict of `read_calibration`'s form.
 fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
     if let Ok(c) = obj.cast::<CameraResult>() {
         return Ok(Calibrated::Single(CameraCalibration::from(&c.get().inner)));
@@ -267,16 +355,14 @@ fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
     if let Ok(s) = obj.cast::<StereoCalibrationResult>() {
         return Ok(Calibrated::Stereo(StereoRig::from(&s.get().inner)));
     }
-    if obj.cast::<RigCalibrationResult>().is_ok() {
-        return Err(PyTypeError::new_err(
-            "calibration: a RigCalibration cannot be written in these formats yet (results of calibrate_camera and stereo_calibrate, and dicts of read_calibration's form, can)",
-        ));
+    if let Ok(r) = obj.cast::<RigCalibrationResult>() {
+        return Ok(Calibrated::Rig(CameraRig::from(&r.get().inner)));
     }
     if let Ok(d) = obj.cast::<PyDict>() {
         return from_dict(d);
     }
     Err(PyTypeError::new_err(format!(
-        "calibration: expected a CameraCalibration, a StereoCalibration or a dict of read_calibration's form, got {}",
+        "calibration: expected a CameraCalibration, a StereoCalibration, a RigCalibration or a dict of read_calibration's form, got {}",
         convert::type_name(obj)
     )))
 }
@@ -285,12 +371,14 @@ fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
 /// ``calib single`` / ``calib stereo``).
 ///
 /// ``path``: the file (a ``str`` or ``os.PathLike``). ``calibration``: a result of
-/// :func:`calibrate_camera` or :func:`stereo_calibrate`, or a dict of the form
-/// :func:`read_calibration` returns (single: ``K``, ``dist``, ``image_size``, optional ``model``
-/// and ``name``; stereo: ``K1``, ``D1``, ``K2``, ``D2``, ``R``, ``T``, ``image_size``, optional
-/// ``image_size2``, ``models``, ``names``). ``format``: ``"opencv"`` (FileStorage YAML, what
-/// cv2.FileStorage reads), ``"ros"`` (camera_info YAML; a stereo rig writes ``STEM-left.EXT``
-/// and ``STEM-right.EXT``) or ``"kalibr"`` (camchain YAML). ``alpha``: free scaling of the
+/// :func:`calibrate_camera`, :func:`stereo_calibrate` or :func:`calibrate_rig`, or a dict of the
+/// form :func:`read_calibration` returns (single: ``K``, ``dist``, ``image_size``, optional
+/// ``model`` and ``name``; stereo: ``K1``, ``D1``, ``K2``, ``D2``, ``R``, ``T``, ``image_size``,
+/// optional ``image_size2``, ``models``, ``names``; rig: ``kind="rig"``, lists ``names``, ``Ks``,
+/// ``dists``, ``image_sizes``, ``Rs``, ``Ts``, optional ``models`` and ``reference``).
+/// ``format``: ``"opencv"`` (FileStorage YAML, what cv2.FileStorage reads; a rig as maps
+/// ``camera_0 ...``), ``"ros"`` (camera_info YAML; a stereo rig writes ``STEM-left.EXT`` and
+/// ``STEM-right.EXT``, a rig ``STEM-NAME.EXT`` per camera) or ``"kalibr"`` (camchain YAML). ``alpha``: free scaling of the
 /// rectification written with a stereo rig (OpenCV, ROS) and of a single camera's ROS
 /// projection matrix, 0 to 1, or -1 / ``None`` for OpenCV's default; default 0 as in
 /// ``calib export``. ``translation_scale``: multiplies translations (0.001 for a board in
@@ -331,14 +419,17 @@ fn camera_items(d: &Bound<'_, PyDict>, c: &CameraCalibration, k: &str, dist: &st
 }
 
 /// Reads a calibration file of any kind ``calib`` reads: an OpenCV FileStorage YAML, a ROS
-/// camera_info YAML, a Kalibr camchain, or a result JSON of ``calib single`` / ``calib stereo``
+/// camera_info YAML, a Kalibr camchain, or a result JSON of ``calib single`` / ``calib stereo`` / ``calib rig``
 /// (or ``to_json()`` of a result). The kind is recognized from the content.
 ///
 /// Returns a dict. One camera: ``kind="single"``, ``name``, ``model`` (e.g.
 /// ``"brown-conrady5"``), ``image_size`` (width, height), ``K`` (3, 3), ``dist`` (1, N) in
 /// OpenCV's order. A stereo rig: ``kind="stereo"``, ``names`` and ``models`` (pairs),
 /// ``image_size`` and ``image_size2``, ``K1``, ``D1``, ``K2``, ``D2``, ``R`` (3, 3) and ``T`` (3, 1)
-/// with ``X2 = R X1 + T``. :func:`write_calibration` takes the dict back. Raises
+/// with ``X2 = R X1 + T``. A rig of N cameras: ``kind="rig"``, lists ``names``, ``models``,
+/// ``image_sizes``, ``Ks``, ``dists``, ``Rs`` and ``Ts`` (each camera's transform from the
+/// reference camera, ``X_cam = R X_ref + T``), and ``reference`` (index).
+/// :func:`write_calibration` takes the dict back. Raises
 /// :class:`CalibrationError` naming the file and key at fault.
 #[pyfunction]
 fn read_calibration(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
@@ -368,6 +459,40 @@ fn read_calibration(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>
             camera_items(&d, &s.right, "K2", "D2")?;
             d.set_item("R", mat3_out(py, &s.rotation))?;
             d.set_item("T", column_out(py, s.translation.as_slice()))?;
+        }
+        Calibrated::Rig(r) => {
+            d.set_item("kind", "rig")?;
+            let names: Vec<&str> = r.cameras.iter().map(|c| c.name.as_str()).collect();
+            d.set_item("names", names)?;
+            let models: Vec<&str> = r.cameras.iter().map(|c| c.camera.model.name()).collect();
+            d.set_item("models", models)?;
+            let sizes: Vec<(u32, u32)> = r.cameras.iter().map(|c| size(c.image_size)).collect();
+            d.set_item("image_sizes", sizes)?;
+            let ks: Vec<_> = r
+                .cameras
+                .iter()
+                .map(|c| mat3_out(py, &c.matrix()))
+                .collect();
+            d.set_item("Ks", ks)?;
+            let dists: Vec<_> = r
+                .cameras
+                .iter()
+                .map(|c| row_out(py, &c.camera.distortion))
+                .collect();
+            d.set_item("dists", dists)?;
+            let rs: Vec<_> = r
+                .transforms
+                .iter()
+                .map(|t| mat3_out(py, &t.rotation))
+                .collect();
+            d.set_item("Rs", rs)?;
+            let ts: Vec<_> = r
+                .transforms
+                .iter()
+                .map(|t| column_out(py, t.translation.as_slice()))
+                .collect();
+            d.set_item("Ts", ts)?;
+            d.set_item("reference", r.reference)?;
         }
     }
     Ok(d)

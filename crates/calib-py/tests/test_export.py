@@ -208,7 +208,7 @@ def test_export_options_and_errors(stereo, single, tmp_path):
         calib.write_calibration(tmp_path / "x.yaml", single, alpha=3)
     with pytest.raises(ValueError, match="translation scale"):
         calib.write_calibration(tmp_path / "x.yaml", single, translation_scale=0)
-    with pytest.raises(TypeError, match="expected a CameraCalibration, a StereoCalibration or a dict"):
+    with pytest.raises(TypeError, match="expected a CameraCalibration, a StereoCalibration, a RigCalibration or a dict"):
         calib.write_calibration(tmp_path / "x.yaml", [1, 2, 3])
     with pytest.raises(ValueError, match="the dict has no key 'dist'"):
         calib.write_calibration(tmp_path / "x.yaml", {"K": single.K, "image_size": (640, 360)})
@@ -260,3 +260,52 @@ def _rotation(rvec):
     k = rvec / theta
     S = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + np.sin(theta) * S + (1 - np.cos(theta)) * S @ S
+
+
+def test_rig_results_are_written_in_every_format_and_read_back(tmp_path):
+    """A rig of three cameras (from `calib synth rig`) calibrated by the bindings: OpenCV's rig
+    layout gives back the rig exactly (and is byte-identical to `calib export` of the same
+    result), Kalibr's chain gives it back to rounding, ROS writes one file per camera, and the
+    dict read_calibration returns writes the same file again."""
+    if CALIB is None:
+        pytest.skip("no calib binary: set CALIB_BIN or run cargo build --release -p calib-cli")
+    obs = tmp_path / "rig.json"
+    subprocess.run([str(CALIB), "synth", "rig", "--cameras", "3", "--views", "24", "-o", str(obs)],
+                   check=True, cwd=ROOT)
+    d = json.loads(obs.read_text())
+    names = [c["name"] for c in d["cameras"]]
+    sizes = [tuple(c["image_size"]) for c in d["cameras"]]
+    obj = [np.array(f["object_points"]) for f in d["frames"]]
+    frames = [{o["camera"]: np.array(o["image_points"]) for o in f["observations"]}
+              for f in d["frames"]]
+    result = calib.calibrate_rig(sizes, obj, frames, names=names)
+    rms, Ks, dists, Rs, Ts = result
+
+    written = calib.write_calibration(tmp_path / "rig.yaml", result, "opencv")
+    back = calib.read_calibration(written[0])
+    assert back["kind"] == "rig" and back["names"] == names and back["reference"] == 0
+    assert back["image_sizes"] == sizes
+    for i in range(3):
+        assert np.array_equal(back["Ks"][i], Ks[i]) and np.array_equal(back["dists"][i], dists[i])
+        assert np.array_equal(back["Rs"][i], Rs[i]) and np.array_equal(back["Ts"][i], Ts[i])
+    result_json = tmp_path / "result.json"
+    result_json.write_text(result.to_json())
+    run_calib("export", result_json, "--format", "opencv", "-o", tmp_path / "cli.yaml")
+    assert (tmp_path / "cli.yaml").read_bytes() == (tmp_path / "rig.yaml").read_bytes()
+    again = calib.write_calibration(tmp_path / "again.yaml", back, "opencv")
+    assert open(again[0], "rb").read() == (tmp_path / "rig.yaml").read_bytes()
+
+    chain = calib.read_calibration(calib.write_calibration(tmp_path / "chain.yaml", result, "kalibr")[0])
+    assert chain["kind"] == "rig" and chain["names"] == ["cam0", "cam1", "cam2"]
+    for i in range(3):
+        assert np.array_equal(chain["Ks"][i], Ks[i])
+        assert np.allclose(chain["Rs"][i], Rs[i], rtol=0, atol=1e-14)
+        assert np.allclose(chain["Ts"][i], Ts[i], rtol=1e-13, atol=1e-10)
+
+    ros = calib.write_calibration(tmp_path / "ros.yaml", result, "ros")
+    assert ros == [str(tmp_path / f"ros-{n}.yaml") for n in names]
+    for path, K in zip(ros, Ks):
+        assert np.array_equal(calib.read_calibration(path)["K"], K)
+
+    with pytest.raises(ValueError, match="expected 3 items"):
+        calib.write_calibration(tmp_path / "bad.yaml", dict(back, Ks=back["Ks"][:2]), "opencv")

@@ -397,20 +397,21 @@ CalibrationDict = dict[str, Any]
 """What read_calibration returns. One camera: ``kind="single"``, ``name``, ``model``,
 ``image_size``, ``K`` (3, 3), ``dist`` (1, N). A stereo rig: ``kind="stereo"``, ``names``,
 ``models``, ``image_size``, ``image_size2``, ``K1``, ``D1``, ``K2``, ``D2``, ``R`` (3, 3),
-``T`` (3, 1)."""
+``T`` (3, 1). A rig of N cameras: ``kind="rig"``, lists ``names``, ``models``, ``image_sizes``,
+``Ks``, ``dists``, ``Rs``, ``Ts`` (``X_cam = R X_ref + T``) and ``reference`` (index)."""
 
 def write_calibration(
     path: Union[str, PathLike[str]],
-    calibration: Union[CameraCalibration, StereoCalibration, Mapping[str, Any]],
+    calibration: Union[CameraCalibration, StereoCalibration, RigCalibration, Mapping[str, Any]],
     format: ExportFormat = "opencv",
     *,
     alpha: Optional[float] = 0.0,
     translation_scale: float = 1.0,
 ) -> list[str]:
     """Writes a calibration as OpenCV FileStorage, ROS camera_info (a stereo rig: STEM-left.EXT
-    and STEM-right.EXT) or Kalibr camchain YAML, like ``calib export``; returns the files
-    written."""
+    and STEM-right.EXT; a rig: STEM-NAME.EXT per camera) or Kalibr camchain YAML, like
+    ``calib export``; returns the files written."""
 
 def read_calibration(path: Union[str, PathLike[str]]) -> CalibrationDict:
-    """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo result JSON (the
-    kind is recognized from the content), as a dict (see CalibrationDict)."""
+    """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo / rig result JSON
+    (the kind is recognized from the content), as a dict (see CalibrationDict)."""
