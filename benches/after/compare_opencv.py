@@ -158,7 +158,7 @@ def main():
     left = json.loads(left_json.read_text())
 
     # --- 1. FileStorage reads back exactly our numbers -------------------------------------
-    print("\n1. cv2.FileStorage reads our OpenCV YAML back (max |difference|, exact expected)")
+    print("\n1. cv2.FileStorage reads our OpenCV YAML back (max |difference|, exact expected; single, stereo, rig)")
     fs = cv2.FileStorage(str(tmp / "left.yaml"), cv2.FILE_STORAGE_READ)
     K, D, size = cam(left["camera"])
     check("single: camera_matrix", np.max(np.abs(fs.getNode("camera_matrix").mat() - K)), 0.0)
@@ -180,6 +180,28 @@ def main():
     F = fs.getNode("F").mat()
     check("stereo: E vs result E (relative)", rel(E, m(rig["E"])), 1e-12)
     check("stereo: F vs result F (relative)", rel(F, m(rig["F"])), 1e-9)
+    fs.release()
+
+    # A rig of four cameras (synthetic: a ring, two pinhole and two fisheye lenses) in the
+    # OpenCV rig layout (camera_0 ...: camera_matrix, distortion_coefficients, R, T, name).
+    rig4_obs = tmp / "synth-rig4.json"
+    run(a.calib, "synth", "rig", "--cameras", "4", "--views", "30", "-o", rig4_obs)
+    rig4_json = tmp / "rig4.json"
+    run(a.calib, "rig", rig4_obs, "-q", "--model", "cam1=kannala-brandt4", "--model", "cam3=kannala-brandt4",
+        "-o", rig4_json, f"--export=opencv={tmp/'rig4.yaml'}")
+    rig4 = json.loads(rig4_json.read_text())
+    fs = cv2.FileStorage(str(tmp / "rig4.yaml"), cv2.FILE_STORAGE_READ)
+    check("rig: rig_cameras", abs(fs.getNode("rig_cameras").real() - len(rig4["cameras"])), 0.0)
+    worst = 0.0
+    for i, c in enumerate(rig4["cameras"]):
+        node = fs.getNode(f"camera_{i}")
+        if node.getNode("name").string() != c["name"]:
+            failures.append(f"rig: camera_{i}.name")
+        K, D, size = cam(c)
+        for key, value in [("camera_matrix", K), ("distortion_coefficients", D), ("R", m(c["R"])), ("T", np.array(c["T"]))]:
+            got = node.getNode(key).mat()
+            worst = max(worst, float(np.max(np.abs(got.reshape(value.shape) - value))))
+    check("rig (4 cameras, 2 fisheye): K, D, R, T of every camera", worst, 0.0)
     fs.release()
 
     # --- 2. stereoRectify -------------------------------------------------------------------

@@ -38,7 +38,8 @@ fi
     || "$VENV/bin/python" -m pip install --quiet opencv-python-headless numpy
 "$VENV/bin/python" "$HERE/compare_opencv.py" --calib "$CALIB" --data "$ROOT/data/sourishg1" | tee "$HERE/results.txt"
 # 5. Reports rendered in headless Chromium: no broken images (render.sh), for a single camera, a
-# stereo rig, and a rational8 fit whose lens model folds inside the image (red validity circle).
+# stereo rig, a rational8 fit whose lens model folds inside the image (red validity circle), and
+# a rig of four cameras.
 OUT=$(mktemp -d /tmp/calib-after-reports-XXXXXX)
 DATA=$ROOT/data/sourishg1
 {
@@ -47,7 +48,9 @@ DATA=$ROOT/data/sourishg1
     "$CALIB" single "$DATA/left.json" -q -o "$OUT/left.json" --report "$OUT/single"
     "$CALIB" stereo "$DATA/stereo.json" -q -o "$OUT/rig.json" --report "$OUT/stereo" 2>/dev/null
     "$CALIB" single "$DATA/left.json" -q --model rational8 -o "$OUT/rational8.json" --report "$OUT/rational8" 2>/dev/null
-    for r in single stereo rational8; do
+    "$CALIB" synth rig --cameras 4 --views 30 -o "$OUT/rig4-obs.json"
+    "$CALIB" rig "$OUT/rig4-obs.json" -q -o "$OUT/rig4.json" --report "$OUT/rig4"
+    for r in single stereo rational8 rig4; do
         echo "  $r: $("$HERE/render.sh" "$OUT/$r" "$OUT/$r.png" || true)"
     done
 } | tee -a "$HERE/results.txt"
