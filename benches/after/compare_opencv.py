@@ -197,8 +197,8 @@ def main():
         node = fs.getNode(f"camera_{i}")
         if node.getNode("name").string() != c["name"]:
             failures.append(f"rig: camera_{i}.name")
-        K, D, size = cam(c)
-        for key, value in [("camera_matrix", K), ("distortion_coefficients", D), ("R", m(c["R"])), ("T", np.array(c["T"]))]:
+        Kc, Dc, _ = cam(c)
+        for key, value in [("camera_matrix", Kc), ("distortion_coefficients", Dc), ("R", m(c["R"])), ("T", np.array(c["T"]))]:
             got = node.getNode(key).mat()
             worst = max(worst, float(np.max(np.abs(got.reshape(value.shape) - value))))
     check("rig (4 cameras, 2 fisheye): K, D, R, T of every camera", worst, 0.0)
