@@ -8,6 +8,8 @@
 //! with the crates' messages; bad arguments become `TypeError` / `ValueError` naming the argument.
 //! Documentation: `docs/python.md`.
 
+#[macro_use]
+mod result_object;
 mod camera;
 mod convert;
 mod detect;

@@ -1,16 +1,16 @@
 //! `calibrate_rig`: `calib_rig::calibrate_rig` for N cameras from NumPy arrays.
 
+use crate::calibration_error;
 use crate::convert::{self, column_out, flat_out, mat3_out, row_out, rvec_tvec};
 use crate::options::{self, Common};
 use crate::stereo::camera_std;
-use crate::{calibration_error, warnings_out};
 use calib_core::View;
 use calib_rig::{
     RigCalibration, RigCameraInput, RigFrame, RigObservation, RigObservations, RigOptions,
     calibrate_rig,
 };
 use camera_model::{AnyCamera, CameraModel, RotationKind};
-use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyString, PyTuple};
 
@@ -321,6 +321,12 @@ impl RigCalibrationResult {
     }
 }
 
+result_object_methods!(
+    RigCalibrationResult,
+    5,
+    "The result as JSON text, the ``calib-rig-result`` format of docs/formats.md (what ``calib rig -o`` writes)."
+);
+
 #[pymethods]
 impl RigCalibrationResult {
     /// RMS reprojection error over the used points of every camera, pixels.
@@ -490,50 +496,6 @@ impl RigCalibrationResult {
     #[getter]
     fn num_rejected(&self) -> usize {
         self.inner.num_rejected
-    }
-
-    /// What deserves attention (list of :class:`CalibrationWarning`).
-    #[getter]
-    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        warnings_out(py, &self.inner.warnings)
-    }
-
-    /// The joint Levenberg-Marquardt report as a dict.
-    #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.inner.to_json()["solver"])
-    }
-
-    /// Wall time in seconds.
-    #[getter]
-    fn elapsed(&self) -> f64 {
-        self.inner.elapsed.as_secs_f64()
-    }
-
-    /// A human summary with +- 3 sigma.
-    fn summary(&self) -> String {
-        self.inner.summary()
-    }
-
-    /// The result as JSON text (``calib-rig-result``, what ``calib rig -o`` writes).
-    fn to_json(&self) -> PyResult<String> {
-        serde_json::to_string_pretty(&self.inner.to_json()).map_err(calibration_error)
-    }
-
-    fn __len__(&self) -> usize {
-        5
-    }
-
-    fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
-        let i = if index < 0 { index + 5 } else { index };
-        if !(0..5).contains(&i) {
-            return Err(PyIndexError::new_err("RigCalibration index out of range"));
-        }
-        self.tuple(py)?.get_item(i as usize)
-    }
-
-    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        Ok(self.tuple(py)?.try_iter()?.into_any())
     }
 
     fn __repr__(&self) -> String {

@@ -1,11 +1,11 @@
 //! `calibrate_camera`: `calib_single::calibrate` with cv2.calibrateCamera's arguments and results.
 
+use crate::calibration_error;
 use crate::convert::{self, flat_out, mat3_out, row_out, rvec_tvec};
 use crate::options::{self, Common};
-use crate::{calibration_error, warnings_out};
 use calib_single::{Calibration, Observations, View, calibrate};
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
@@ -163,6 +163,12 @@ impl CameraCalibration {
     }
 }
 
+result_object_methods!(
+    CameraCalibration,
+    5,
+    "The result as JSON text, the ``calib-single-result`` format of docs/formats.md (what ``calib single -o`` writes)."
+);
+
 #[pymethods]
 impl CameraCalibration {
     /// RMS reprojection error over the used points, pixels (cv2's ``retval``).
@@ -305,53 +311,6 @@ impl CameraCalibration {
     #[getter]
     fn rotation(&self) -> &'static str {
         self.inner.rotation.name()
-    }
-
-    /// What deserves attention (list of :class:`CalibrationWarning`).
-    #[getter]
-    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        warnings_out(py, &self.inner.warnings)
-    }
-
-    /// The Levenberg-Marquardt report as a dict (termination, costs, iterations, timings).
-    #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.inner.to_json()["solver"])
-    }
-
-    /// Wall time of the calibration in seconds.
-    #[getter]
-    fn elapsed(&self) -> f64 {
-        self.inner.elapsed.as_secs_f64()
-    }
-
-    /// A human summary: every parameter with +- 3 sigma, the RMS, the worst views, warnings.
-    fn summary(&self) -> String {
-        self.inner.summary()
-    }
-
-    /// The result as JSON text, the ``calib-single-result`` format of docs/formats.md (what
-    /// ``calib single -o`` writes).
-    fn to_json(&self) -> PyResult<String> {
-        serde_json::to_string_pretty(&self.inner.to_json()).map_err(calibration_error)
-    }
-
-    fn __len__(&self) -> usize {
-        5
-    }
-
-    fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
-        let i = if index < 0 { index + 5 } else { index };
-        if !(0..5).contains(&i) {
-            return Err(PyIndexError::new_err(
-                "CameraCalibration index out of range",
-            ));
-        }
-        self.tuple(py)?.get_item(i as usize)
-    }
-
-    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        Ok(self.tuple(py)?.try_iter()?.into_any())
     }
 
     fn __repr__(&self) -> String {

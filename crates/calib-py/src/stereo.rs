@@ -1,9 +1,9 @@
 //! `stereo_calibrate`: `calib_stereo::calibrate_stereo` with cv2.stereoCalibrate's results.
 
+use crate::calibration_error;
 use crate::convert::{self, column_out, flat_out, mat3_out, row_out, rvec_tvec};
 use crate::options::{self, Common};
 use crate::single::view_names;
-use crate::{calibration_error, warnings_out};
 use calib_core::result::CameraEstimate;
 use calib_single::View;
 use calib_stereo::{
@@ -11,7 +11,7 @@ use calib_stereo::{
 };
 use camera_model::RotationKind;
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
@@ -220,6 +220,12 @@ impl StereoCalibrationResult {
     }
 }
 
+result_object_methods!(
+    StereoCalibrationResult,
+    9,
+    "The result as JSON text, the ``calib-stereo-result`` format of docs/formats.md (what ``calib stereo -o`` writes)."
+);
+
 #[pymethods]
 impl StereoCalibrationResult {
     /// RMS reprojection error over the used points of both cameras, pixels.
@@ -378,52 +384,6 @@ impl StereoCalibrationResult {
     #[getter]
     fn num_rejected(&self) -> usize {
         self.inner.num_rejected
-    }
-
-    /// What deserves attention (list of :class:`CalibrationWarning`).
-    #[getter]
-    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        warnings_out(py, &self.inner.warnings)
-    }
-
-    /// The joint Levenberg-Marquardt report as a dict.
-    #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.inner.to_json()["solver"])
-    }
-
-    /// Wall time in seconds.
-    #[getter]
-    fn elapsed(&self) -> f64 {
-        self.inner.elapsed.as_secs_f64()
-    }
-
-    /// A human summary with +- 3 sigma.
-    fn summary(&self) -> String {
-        self.inner.summary()
-    }
-
-    /// The result as JSON text (``calib-stereo-result``, what ``calib stereo -o`` writes).
-    fn to_json(&self) -> PyResult<String> {
-        serde_json::to_string_pretty(&self.inner.to_json()).map_err(calibration_error)
-    }
-
-    fn __len__(&self) -> usize {
-        9
-    }
-
-    fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
-        let i = if index < 0 { index + 9 } else { index };
-        if !(0..9).contains(&i) {
-            return Err(PyIndexError::new_err(
-                "StereoCalibration index out of range",
-            ));
-        }
-        self.tuple(py)?.get_item(i as usize)
-    }
-
-    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        Ok(self.tuple(py)?.try_iter()?.into_any())
     }
 
     fn __repr__(&self) -> String {
