@@ -8,71 +8,53 @@
 use calib_core::SolveOptions;
 use calib_rig::synthetic::{generate_rig, population};
 use calib_rig::{RigOptions, calibrate_rig, rig_problem};
+use calib_test_support::{Outcome, judge, sweep};
 
-#[derive(Default)]
-struct Counts {
-    at_minimum: usize,
-    not_generated: usize,
-    unobservable: usize,
-    refused: Vec<String>,
-    iteration_limit: Vec<String>,
-    above: Vec<String>,
-}
-
-fn sweep(seeds: std::ops::Range<u64>) -> Counts {
-    let mut counts = Counts::default();
-    for seed in seeds {
-        let config = population(seed);
-        let Ok(set) = generate_rig(&config) else {
-            counts.not_generated += 1;
-            continue;
-        };
-        let options = RigOptions::default();
-        // The reference: the same joint optimization (no outlier rejection on either side, so
-        // both minimize the same cost) started from the truth.
-        let problem = rig_problem(
-            &set.observations,
-            &set.cameras,
-            &set.transforms,
-            &set.frame_poses,
-            0,
-        );
-        let mut solve = SolveOptions::default();
-        solve.outliers = None;
-        solve.compute_uncertainty = false;
-        let what = format!(
-            "seed {seed} ({} cameras, {} frames, tilt {:.1} deg, noise {:.2} px)",
-            config.cameras, config.frames, config.base.max_tilt_deg, config.base.noise_px
-        );
-        let reference = match calib_core::solve(&problem, &solve) {
-            Ok(r) => r,
-            Err(e) if e.to_string().contains("not determined") => {
-                counts.unobservable += 1;
-                continue;
-            }
-            Err(e) => panic!("{what}: the truth start fails: {e}"),
-        };
-        let mut used = 0;
-        let mut sum = 0.0;
-        for e in &reference.errors {
-            used += e.used;
-            sum += e.sum_sq;
-        }
-        let reference_rms = (sum / used as f64).sqrt();
-        let mut ours = options.clone();
-        ours.outliers = None;
-        match calibrate_rig(&set.observations, &ours) {
-            Err(e) => counts.refused.push(format!("{what}: {e}")),
-            Ok(r) if !r.solver.termination.is_converged() => counts
-                .iteration_limit
-                .push(format!("{what}: {}", r.solver.termination)),
-            Ok(r) if r.rms > reference_rms + 1e-5 => counts
-                .above
-                .push(format!("{what}: {} vs {reference_rms}", r.rms)),
-            Ok(_) => counts.at_minimum += 1,
-        }
-    }
-    counts
+fn problem(seed: u64) -> Outcome {
+    let config = population(seed);
+    let Ok(set) = generate_rig(&config) else {
+        return Outcome::NotGenerated;
+    };
+    // The reference: the same joint optimization (no outlier rejection on either side, so both
+    // minimize the same cost) started from the truth.
+    let problem = rig_problem(
+        &set.observations,
+        &set.cameras,
+        &set.transforms,
+        &set.frame_poses,
+        0,
+    );
+    let mut solve = SolveOptions::default();
+    solve.outliers = None;
+    solve.compute_uncertainty = false;
+    let what = format!(
+        "seed {seed} ({} cameras, {} frames, tilt {:.1} deg, noise {:.2} px)",
+        config.cameras, config.frames, config.base.max_tilt_deg, config.base.noise_px
+    );
+    let reference = match calib_core::solve(&problem, &solve) {
+        Ok(r) => r,
+        Err(e) if e.to_string().contains("not determined") => return Outcome::NotDetermined,
+        Err(e) => panic!("{what}: the truth start fails: {e}"),
+    };
+    let (used, sum) = reference
+        .errors
+        .iter()
+        .fold((0, 0.0), |(n, s), e| (n + e.used, s + e.sum_sq));
+    let reference_rms = (sum / used as f64).sqrt();
+    let mut ours = RigOptions::default();
+    ours.outliers = None;
+    let ours = calibrate_rig(&set.observations, &ours).map(|r| {
+        let converged = r.solver.termination.is_converged();
+        (
+            r.rms,
+            if converged {
+                Ok(())
+            } else {
+                Err(r.solver.termination)
+            },
+        )
+    });
+    judge(&what, ours, reference_rms, 1e-5)
 }
 
 #[test]
@@ -81,40 +63,11 @@ fn every_rig_of_the_population_reaches_the_true_minimum() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(300);
-    let halves = std::thread::scope(|s| {
-        let a = s.spawn(|| sweep(0..problems / 2));
-        let b = s.spawn(|| sweep(problems / 2..problems));
-        [a.join().unwrap(), b.join().unwrap()]
-    });
-    let mut all = Counts::default();
-    for h in halves {
-        all.at_minimum += h.at_minimum;
-        all.not_generated += h.not_generated;
-        all.unobservable += h.unobservable;
-        all.refused.extend(h.refused);
-        all.iteration_limit.extend(h.iteration_limit);
-        all.above.extend(h.above);
-    }
-    println!(
-        "{problems} rigs ({} not generated): {} at the minimum, {} not determined from the truth, {} refused, {} iteration limit, {} above",
-        all.not_generated,
-        all.at_minimum,
-        all.unobservable,
-        all.refused.len(),
-        all.iteration_limit.len(),
-        all.above.len()
-    );
-    for line in all
-        .refused
-        .iter()
-        .chain(&all.iteration_limit)
-        .chain(&all.above)
-    {
-        println!("  {line}");
-    }
+    let all = sweep(problems, problem);
+    println!("{}", all.report("rigs"));
     assert!(all.not_generated < problems as usize / 10);
     assert_eq!(
-        all.at_minimum + all.not_generated + all.unobservable,
+        all.at_minimum + all.not_generated + all.not_determined,
         problems as usize
     );
 }

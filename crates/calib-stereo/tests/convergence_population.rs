@@ -6,108 +6,62 @@
 
 use calib_stereo::synthetic::{generate_stereo, population};
 use calib_stereo::{StereoOptions, calibrate_stereo};
+use calib_test_support::{Outcome, judge, sweep};
 
-#[derive(Default)]
-struct Counts {
-    at_minimum: usize,
-    unobservable: usize,
-    not_generated: usize,
-    refused: Vec<String>,
-    iteration_limit: Vec<String>,
-    above: Vec<String>,
-}
-
-fn sweep(seeds: std::ops::Range<u64>) -> Counts {
-    let mut counts = Counts::default();
-    for seed in seeds {
-        let config = population(seed);
-        // A draw whose board the two cameras cannot both see whole is not a capture.
-        let Ok(set) = generate_stereo(&config) else {
-            counts.not_generated += 1;
-            continue;
-        };
-        let options = StereoOptions::default();
-        let mut truth = options.clone();
-        truth.left.intrinsic_guess = Some(set.left.intrinsics);
-        truth.left.distortion_guess = Some(set.left.distortion.clone());
-        truth.right.intrinsic_guess = Some(set.right.intrinsics);
-        truth.right.distortion_guess = Some(set.right.distortion.clone());
-        truth.rig_guess = Some(set.rig);
-        let reference = calibrate_stereo(&set.observations, &truth);
-        let reference = match reference {
-            Ok(r) => r,
-            // Not determined even from the truth: the data cannot fix the answer, and the
-            // default start must refuse it too.
-            Err(e) if e.to_string().contains("not determined") => {
-                let ours = calibrate_stereo(&set.observations, &options);
-                assert!(
-                    ours.is_err(),
-                    "seed {seed}: accepted an undetermined problem"
-                );
-                counts.unobservable += 1;
-                continue;
-            }
-            Err(e) => panic!("seed {seed}: the truth start fails: {e}"),
-        };
-        let what = format!(
-            "seed {seed} ({} pairs, tilt {:.1} deg, noise {:.2} px)",
-            config.left.views, config.left.max_tilt_deg, config.left.noise_px
-        );
-        match calibrate_stereo(&set.observations, &options) {
-            Err(e) => counts.refused.push(format!("{what}: {e}")),
-            Ok(r) if !r.solver.termination.is_converged() => counts
-                .iteration_limit
-                .push(format!("{what}: {}", r.solver.termination)),
-            Ok(r) if r.rms_all_points > reference.rms_all_points + 1e-5 => {
-                counts.above.push(format!(
-                    "{what}: {} vs {}",
-                    r.rms_all_points, reference.rms_all_points
-                ))
-            }
-            Ok(_) => counts.at_minimum += 1,
+fn problem(seed: u64) -> Outcome {
+    let config = population(seed);
+    // A draw whose board the two cameras cannot both see whole is not a capture.
+    let Ok(set) = generate_stereo(&config) else {
+        return Outcome::NotGenerated;
+    };
+    let options = StereoOptions::default();
+    let mut truth = options.clone();
+    truth.left.intrinsic_guess = Some(set.left.intrinsics);
+    truth.left.distortion_guess = Some(set.left.distortion.clone());
+    truth.right.intrinsic_guess = Some(set.right.intrinsics);
+    truth.right.distortion_guess = Some(set.right.distortion.clone());
+    truth.rig_guess = Some(set.rig);
+    let reference = match calibrate_stereo(&set.observations, &truth) {
+        Ok(r) => r,
+        // Not determined even from the truth: the data cannot fix the answer, and the default
+        // start must refuse it too.
+        Err(e) if e.to_string().contains("not determined") => {
+            let ours = calibrate_stereo(&set.observations, &options);
+            assert!(
+                ours.is_err(),
+                "seed {seed}: accepted an undetermined problem"
+            );
+            return Outcome::NotDetermined;
         }
-    }
-    counts
+        Err(e) => panic!("seed {seed}: the truth start fails: {e}"),
+    };
+    let what = format!(
+        "seed {seed} ({} pairs, tilt {:.1} deg, noise {:.2} px)",
+        config.left.views, config.left.max_tilt_deg, config.left.noise_px
+    );
+    let ours = calibrate_stereo(&set.observations, &options).map(|r| {
+        let converged = r.solver.termination.is_converged();
+        (
+            r.rms_all_points,
+            if converged {
+                Ok(())
+            } else {
+                Err(r.solver.termination)
+            },
+        )
+    });
+    judge(&what, ours, reference.rms_all_points, 1e-5)
 }
 
 #[test]
 fn every_stereo_problem_of_the_population_reaches_the_true_minimum() {
     let problems = 500;
-    let halves = std::thread::scope(|s| {
-        let a = s.spawn(|| sweep(0..problems / 2));
-        let b = s.spawn(|| sweep(problems / 2..problems));
-        [a.join().unwrap(), b.join().unwrap()]
-    });
-    let mut all = Counts::default();
-    for h in halves {
-        all.at_minimum += h.at_minimum;
-        all.unobservable += h.unobservable;
-        all.not_generated += h.not_generated;
-        all.refused.extend(h.refused);
-        all.iteration_limit.extend(h.iteration_limit);
-        all.above.extend(h.above);
-    }
-    println!(
-        "{problems} problems ({} not generated): {} at the minimum, {} not determined (refused from the truth too), {} refused, {} iteration limit, {} above",
-        all.not_generated,
-        all.at_minimum,
-        all.unobservable,
-        all.refused.len(),
-        all.iteration_limit.len(),
-        all.above.len()
-    );
-    for line in all
-        .refused
-        .iter()
-        .chain(&all.iteration_limit)
-        .chain(&all.above)
-    {
-        println!("  {line}");
-    }
+    let all = sweep(problems, problem);
+    println!("{}", all.report("problems"));
     assert!(all.not_generated < problems as usize / 10);
-    assert!(all.unobservable <= 2);
+    assert!(all.not_determined <= 2);
     assert_eq!(
-        all.at_minimum + all.not_generated + all.unobservable,
+        all.at_minimum + all.not_generated + all.not_determined,
         problems as usize
     );
 }
