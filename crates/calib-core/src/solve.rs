@@ -37,6 +37,11 @@ pub struct SolveOptions {
     /// Reject outliers and solve again until the rejected set is stable (`None`: use every
     /// point, and ignore the observations' suspects). See [`crate::outliers`].
     pub outliers: Option<OutlierRejection>,
+    /// Check each camera at the solution and warn (principal point, lens model validity,
+    /// poorly determined parameters; default `true`). Internal solves whose solution is only a
+    /// start or a score (the focal searches, a many-term model's simpler stage) skip it: the
+    /// validity walk alone costs about as much as a small solve.
+    pub camera_warnings: bool,
 }
 
 impl Default for SolveOptions {
@@ -48,6 +53,7 @@ impl Default for SolveOptions {
             loss: Loss::Trivial,
             compute_uncertainty: true,
             outliers: Some(OutlierRejection::default()),
+            camera_warnings: true,
         }
     }
 }
@@ -181,8 +187,10 @@ pub fn solve(
         let mut solution = solve_once(problem, options, problem, None)?;
         solution.total_iterations = solution.report.iterations.len();
         add_solver_warnings(&mut solution);
-        let camera = crate::diagnostics::camera_warnings(problem, &solution);
-        solution.warnings.extend(camera);
+        if options.camera_warnings {
+            let camera = crate::diagnostics::camera_warnings(problem, &solution);
+            solution.warnings.extend(camera);
+        }
         return Ok(solution);
     };
     let mut rejected: Vec<Vec<usize>> = problem
@@ -219,8 +227,10 @@ pub fn solve(
             solution.initial_cost = first_cost;
             add_solver_warnings(&mut solution);
             add_outlier_warning(problem, &mut solution, &rejection);
-            let camera = crate::diagnostics::camera_warnings(problem, &solution);
-            solution.warnings.extend(camera);
+            if options.camera_warnings {
+                let camera = crate::diagnostics::camera_warnings(problem, &solution);
+                solution.warnings.extend(camera);
+            }
             return Ok(solution);
         }
         check_view_fractions(problem, &marked, &rejection)?;
