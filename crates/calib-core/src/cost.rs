@@ -191,6 +191,30 @@ impl<'a, R: RotationParameterization> JointCost<'a, R> {
         })
     }
 
+    /// The smallest `|denominator|` of the lens model's rational term over the used points
+    /// (positive weight) of observation `block` at its residual block's parameters `params`;
+    /// `None` for models without a denominator, for observations without used points, and
+    /// when a point cannot be projected.
+    pub fn smallest_denominator(&self, block: usize, params: &[&[f64]]) -> Option<f64> {
+        let obs = &self.problem.observations[block];
+        let spec = &self.problem.cameras[obs.camera];
+        let layout = self.layouts[block];
+        let (pose, rig) = self.poses(params, layout);
+        dispatch_camera_model!(spec.model(), D, P => {
+            let camera = self.typed_camera::<D, P>(spec, params, layout);
+            let mut smallest: Option<f64> = None;
+            for (i, x) in obs.object.iter().enumerate() {
+                if obs.weights.as_ref().is_some_and(|w| w[i] <= 0.0) {
+                    continue;
+                }
+                let n = P::project(&transform(&pose, rig.as_ref(), x)).ok()?;
+                let q = camera.distortion.denominator(&n)?.abs();
+                smallest = Some(smallest.map_or(q, |s| s.min(q)));
+            }
+            smallest
+        })
+    }
+
     fn evaluate_model<D: LensDistortion, P: Projection>(
         &self,
         block: usize,
@@ -530,6 +554,58 @@ mod tests {
             }
         }
         Ok(())
+    }
+
+    /// `smallest_denominator` is the smallest `|1 + k4 r^2 + k5 r^4 + k6 r^6|` over the used
+    /// points, computed here independently from the camera-frame points; `None` for polynomial
+    /// models.
+    #[test]
+    fn smallest_denominator_is_over_the_used_points() {
+        let mut p = problem(3, false, false);
+        let k = Intrinsics::new(500.0, 500.0, 320.0, 240.0);
+        let point_r2 = |p: &JointProblem, i: usize| {
+            let s = p.frames[0].transform_point(&p.observations[0].object[i]);
+            (s.x / s.z).powi(2) + (s.y / s.z).powi(2)
+        };
+        // A denominator with a root exactly at point 7's radius: 1 - r^2 / r7^2.
+        let r7 = point_r2(&p, 7);
+        let mut d = vec![0.0; 8];
+        d[5] = -1.0 / r7;
+        p.cameras[0].initial = AnyCamera::new(CameraModel::Rational8, k, d.clone()).unwrap();
+        let expected = |p: &JointProblem, d: &[f64]| {
+            (0..12)
+                .filter(|&i| {
+                    p.observations[0]
+                        .weights
+                        .as_ref()
+                        .is_none_or(|w| w[i] > 0.0)
+                })
+                .map(|i| (1.0 + d[5] * point_r2(p, i)).abs())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let smallest = |p: &JointProblem| {
+            let cost = JointCost::<EulerXyz>::new(p);
+            let owned = params::<EulerXyz>(p, 0);
+            let refs: Vec<&[f64]> = owned.iter().map(|v| v.as_slice()).collect();
+            cost.smallest_denominator(0, &refs)
+        };
+        let q = smallest(&p).unwrap();
+        assert!(q < 1e-12, "{q}");
+        assert!((q - expected(&p, &d)).abs() < 1e-12);
+        // Point 5 has weight zero: a root at its radius is not seen.
+        let r5 = point_r2(&p, 5);
+        d[5] = -1.0 / r5;
+        p.cameras[0].initial = AnyCamera::new(CameraModel::Rational8, k, d.clone()).unwrap();
+        let q = smallest(&p).unwrap();
+        assert!(q > 1e-6 || (r5 - r7).abs() < 1e-9, "{q}");
+        assert!(
+            (q - expected(&p, &d)).abs() < 1e-12,
+            "{q} vs {}",
+            expected(&p, &d)
+        );
+        p.cameras[0].initial =
+            AnyCamera::new(CameraModel::BrownConrady5, k, vec![0.1, 0.0, 0.0, 0.0, 0.0]).unwrap();
+        assert_eq!(smallest(&p), None);
     }
 
     proptest! {

@@ -522,6 +522,7 @@ fn score_from_poses(
     let mut options = SolveOptions {
         compute_uncertainty: false,
         outliers: None,
+        camera_warnings: false,
         ..SolveOptions::default()
     };
     options.solver.max_iterations = effort.max_iterations;

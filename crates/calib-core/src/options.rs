@@ -98,6 +98,7 @@ impl CalibrationOptions {
             loss: self.loss,
             compute_uncertainty: self.compute_uncertainty,
             outliers: self.outliers,
+            camera_warnings: true,
         }
     }
 

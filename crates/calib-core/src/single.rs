@@ -465,6 +465,7 @@ impl PreparedCamera {
         let options = crate::SolveOptions {
             compute_uncertainty: false,
             outliers: None,
+            camera_warnings: false,
             ..crate::SolveOptions::default()
         };
         let Ok(solution) = crate::solve(&staged.into_problem("start"), &options) else {

@@ -16,8 +16,8 @@ use camera_model::{
 };
 use lm_solver::manifold::RotationVector;
 use lm_solver::{
-    CovarianceError, Loss, ParameterBlockId, ProblemBuilder, Solver, SolverError, SolverOptions,
-    SolverReport,
+    CovarianceError, DampingPolicy, Loss, ParameterBlockId, ProblemBuilder, Solver, SolverError,
+    SolverOptions, SolverReport,
 };
 use nalgebra::{DMatrix, Vector2, Vector3, Vector6};
 use std::sync::Arc;
@@ -37,6 +37,11 @@ pub struct SolveOptions {
     /// Reject outliers and solve again until the rejected set is stable (`None`: use every
     /// point, and ignore the observations' suspects). See [`crate::outliers`].
     pub outliers: Option<OutlierRejection>,
+    /// Check each camera at the solution and warn (principal point, lens model validity,
+    /// poorly determined parameters; default `true`). Internal solves whose solution is only a
+    /// start or a score (the focal searches, a many-term model's simpler stage) skip it: the
+    /// validity walk alone costs about as much as a small solve.
+    pub camera_warnings: bool,
 }
 
 impl Default for SolveOptions {
@@ -48,6 +53,7 @@ impl Default for SolveOptions {
             loss: Loss::Trivial,
             compute_uncertainty: true,
             outliers: Some(OutlierRejection::default()),
+            camera_warnings: true,
         }
     }
 }
@@ -181,8 +187,10 @@ pub fn solve(
         let mut solution = solve_once(problem, options, problem, None)?;
         solution.total_iterations = solution.report.iterations.len();
         add_solver_warnings(&mut solution);
-        let camera = crate::diagnostics::camera_warnings(problem, &solution);
-        solution.warnings.extend(camera);
+        if options.camera_warnings {
+            let camera = crate::diagnostics::camera_warnings(problem, &solution);
+            solution.warnings.extend(camera);
+        }
         return Ok(solution);
     };
     let mut rejected: Vec<Vec<usize>> = problem
@@ -219,8 +227,10 @@ pub fn solve(
             solution.initial_cost = first_cost;
             add_solver_warnings(&mut solution);
             add_outlier_warning(problem, &mut solution, &rejection);
-            let camera = crate::diagnostics::camera_warnings(problem, &solution);
-            solution.warnings.extend(camera);
+            if options.camera_warnings {
+                let camera = crate::diagnostics::camera_warnings(problem, &solution);
+                solution.warnings.extend(camera);
+            }
             return Ok(solution);
         }
         check_view_fractions(problem, &marked, &rejection)?;
@@ -569,7 +579,8 @@ fn user_error(problem: &JointProblem, blocks: &Blocks, error: CovarianceError) -
         CovarianceError::SingularEliminatedBlock { block } => {
             // A view of a full board determines its pose; a rational lens model whose
             // denominator nearly vanishes at some of its points (derivatives of 1e8 px and more)
-            // makes the pose block numerically singular instead.
+            // makes the pose block numerically singular instead (`stopped_at_pole`: the other
+            // damping policy was tried).
             let rational = blocks
                 .frames
                 .iter()
@@ -584,7 +595,7 @@ fn user_error(problem: &JointProblem, blocks: &Blocks, error: CovarianceError) -
                 });
             let hint = match rational {
                 Some(model) => format!(
-                    "the board must show at least 4 well-spread points that are not on one line, or the {model} lens model reached a state where its denominator nearly vanishes at this view's points (the optimization stalled in its flat valley): try brown-conrady5, or --damping marquardt"
+                    "the board must show at least 4 well-spread points that are not on one line, or the {model} lens model reached a state where its denominator nearly vanishes at this view's points (the optimization stopped against a pole of the model with both damping policies): try brown-conrady5"
                 ),
                 None => {
                     "the board must show at least 4 well-spread points that are not on one line"
@@ -620,6 +631,73 @@ fn solver_error(problem: &JointProblem, error: SolverError) -> CalibrationError 
     }
 }
 
+/// A rational lens model's denominator below this (in absolute value) at an observed point
+/// marks a pole wall: the point's derivatives are `1 / |denominator|`, a million times their
+/// size elsewhere, and more.
+pub const POLE_WALL: f64 = 1e-6;
+
+/// Whether the solve stopped with a rational lens model's denominator at or below
+/// [`POLE_WALL`] at an observed point.
+///
+/// Numerator and denominator of a rational model can share a root (the valley of nearly
+/// equivalent coefficients: both multiplied by a common `(1 + a r^2)`). When that root reaches the
+/// radius of an observed point, the point's projection is `0/0`: the cost is finite, but it
+/// changes by the whole error of the point within `1e-10` of the parameters, and on one side of
+/// that wall a Levenberg-Marquardt path can go on lowering the cost in ever shorter steps until
+/// the step tolerance stops it. That point is not a minimum (the gradient is large, every
+/// longer step is rejected), and its covariance is singular. The minimum lies past the wall,
+/// which a path with longer steps can cross (both signs flip together, the projection stays
+/// finite).
+fn stopped_at_pole<R: RotationParameterization>(
+    cost: &JointCost<'_, R>,
+    lm: &lm_solver::Problem,
+    x: &[f64],
+) -> bool {
+    let mut params: Vec<&[f64]> = Vec::with_capacity(4);
+    (0..lm.num_residual_blocks()).any(|i| {
+        params.clear();
+        params.extend(
+            lm.residual_blocks_of(lm_solver::ResidualBlockId(i))
+                .map(|b| lm.block(x, b)),
+        );
+        cost.smallest_denominator(i, &params)
+            .is_some_and(|q| q <= POLE_WALL)
+    })
+}
+
+/// The damping policy to retry a solve with: Marquardt's for the additive and hybrid policies,
+/// the hybrid one for Marquardt's.
+fn other_damping(damping: DampingPolicy) -> Option<DampingPolicy> {
+    match damping {
+        DampingPolicy::Marquardt { .. } => Some(DampingPolicy::hybrid()),
+        DampingPolicy::Additive { .. } | DampingPolicy::Hybrid { .. } => {
+            Some(DampingPolicy::marquardt())
+        }
+        _ => None,
+    }
+}
+
+/// The report of a retried solve: the retry's, with the first attempt's iterations and
+/// evaluations before its own, so that counts and times cover both.
+fn merge_reports(first: SolverReport, mut retry: SolverReport) -> SolverReport {
+    let mut iterations = first.iterations;
+    let offset = iterations.len();
+    for record in &mut retry.iterations {
+        record.iteration += offset;
+    }
+    iterations.append(&mut retry.iterations);
+    retry.iterations = iterations;
+    retry.initial_cost = first.initial_cost;
+    retry.accepted_steps += first.accepted_steps;
+    retry.residual_evaluations += first.residual_evaluations;
+    retry.jacobian_evaluations += first.jacobian_evaluations;
+    retry.linear_solves += first.linear_solves;
+    retry.evaluate_time += first.evaluate_time;
+    retry.solve_time += first.solve_time;
+    retry.total_time += first.total_time;
+    retry
+}
+
 fn solve_with<R: RotationParameterization>(
     problem: &JointProblem,
     options: &SolveOptions,
@@ -637,12 +715,33 @@ fn solve_with<R: RotationParameterization>(
         });
     }
     let cost = JointCost::<R>::new(problem);
-    let mut x = start::<R>(problem, &lm, &blocks);
+    let x_start = start::<R>(problem, &lm, &blocks);
+    let mut x = x_start.clone();
     let mut solver =
         Solver::new(lm, options.solver.clone()).map_err(|e| solver_error(problem, e))?;
-    let report = solver
+    let mut report = solver
         .solve(&cost, &mut x)
         .map_err(|e| solver_error(problem, e))?;
+    // A rational lens model's path can end against one of its poles (see `stopped_at_pole`):
+    // not a minimum. The other damping policy's path from the same start is tried once; its
+    // result replaces the first only if it does not end at a pole as well.
+    if let Some(damping) = other_damping(options.solver.damping)
+        && stopped_at_pole(&cost, solver.problem(), &x)
+    {
+        let mut retry_options = options.solver.clone();
+        retry_options.damping = damping;
+        let mut retry = Solver::new(solver.problem().clone(), retry_options)
+            .map_err(|e| solver_error(problem, e))?;
+        let mut retry_x = x_start;
+        let retry_report = retry
+            .solve(&cost, &mut retry_x)
+            .map_err(|e| solver_error(problem, e))?;
+        if !stopped_at_pole(&cost, retry.problem(), &retry_x) {
+            solver = retry;
+            x = retry_x;
+            report = merge_reports(report, retry_report);
+        }
+    }
     // Zero-weight points count as residuals for the solver but carry no information: rescale
     // the variance to the points actually used.
     let all_rows = solver.problem().num_residuals();
