@@ -278,16 +278,20 @@ pub struct ScoringView {
 /// as it can afford (a score is one small calibration, about 1 ms at this size). The pinhole
 /// search only runs on weak captures and keeps up to 100 points per view (with 30, one weak
 /// stereo capture of the convergence population started outside the right camera's range);
-/// the fisheye search runs on every fisheye calibration and 30 points spread over a view fix its
-/// pose and its share of the distortion, at a third of the cost.
+/// the fisheye search runs on every fisheye calibration and scores fewer, smaller views
+/// ([`FISHEYE_SCORING_VIEWS`]).
 pub const SCORING_VIEWS: usize = 40;
 /// See [`SCORING_VIEWS`].
 pub const SCORING_POINTS: usize = 100;
-/// See [`SCORING_VIEWS`].
-pub const FISHEYE_SCORING_POINTS: usize = 30;
-/// Views scoring a fisheye focal length: the equidistant poses of 20 views fix it as well as
-/// 40 (the fisheye sweep reaches the same minima), at half the cost.
-pub const FISHEYE_SCORING_VIEWS: usize = 20;
+/// Points per view scoring a fisheye focal length (see [`FISHEYE_SCORING_VIEWS`]).
+pub const FISHEYE_SCORING_POINTS: usize = 12;
+/// Views scoring a fisheye focal length. The search only has to land in the minimum's basin
+/// along the focal length, which the equidistant poses of 8 views of 12 spread points fix as
+/// well as 20 of 30 did: the fisheye sweep (`calib-single/tests/fisheye.rs`, fields of view
+/// 60 to 190 degrees, 3 to 25 views, noise to 1.5 px, tilts from 8 degrees) and a 400-problem
+/// run of it reach the same minima, and the search costs about half (it dominated a fisheye
+/// calibration: `docs/benchmarks-models.md`).
+pub const FISHEYE_SCORING_VIEWS: usize = 8;
 
 /// The relative depth range of a view's points, from its homography alone (independent of the
 /// intrinsics): with `w(X) = h31 X + h32 Y + h33` proportional to the depth of board point `X`,
