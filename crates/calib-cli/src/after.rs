@@ -643,7 +643,6 @@ pub struct ReportArgs {
 }
 
 pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
-    use calib_core::JsonFile;
     let (text, name) = calib_core::read_text(
         Path::new(&args.input),
         calib_core::io::DEFAULT_MAX_INPUT_BYTES,
@@ -655,35 +654,48 @@ pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
         .and_then(|f| f.as_str())
         .unwrap_or("")
         .to_string();
+    let observations = args.observations.as_deref();
     let input = if format.starts_with("calib-single-result/") {
-        let result = calib_single::Calibration::from_json(value)
-            .map_err(|e| Failure(format!("{name}: {e}")))?;
-        let observations = match &args.observations {
-            Some(path) => Some(calib_single::Observations::read(path)?),
-            None => None,
-        };
-        calib_export::ReportInput::single(&result, observations.as_ref())
+        report_input(
+            value,
+            &name,
+            observations,
+            calib_single::Calibration::from_json,
+            calib_export::ReportInput::single,
+        )
     } else if format.starts_with("calib-stereo-result/") {
-        let result = calib_stereo::StereoCalibration::from_json(value)
-            .map_err(|e| Failure(format!("{name}: {e}")))?;
-        let observations = match &args.observations {
-            Some(path) => Some(calib_stereo::StereoObservations::read(path)?),
-            None => None,
-        };
-        calib_export::ReportInput::stereo(&result, observations.as_ref())
+        report_input(
+            value,
+            &name,
+            observations,
+            calib_stereo::StereoCalibration::from_json,
+            calib_export::ReportInput::stereo,
+        )
     } else if format.starts_with("calib-rig-result/") {
-        let result = calib_rig::RigCalibration::from_json(value)
-            .map_err(|e| Failure(format!("{name}: {e}")))?;
-        let observations = match &args.observations {
-            Some(path) => Some(calib_rig::RigObservations::read(path)?),
-            None => None,
-        };
-        calib_export::ReportInput::rig(&result, observations.as_ref())
+        report_input(
+            value,
+            &name,
+            observations,
+            calib_rig::RigCalibration::from_json,
+            calib_export::ReportInput::rig,
+        )
     } else {
-        return Err(Failure(format!(
+        Err(Failure(format!(
             "{name}: not a calib single, calib stereo or calib rig result (format '{format}')"
-        )));
-    }
-    .map_err(|e| Failure(format!("{name}: {e}")))?;
+        )))
+    }?;
     write_report_to(&input, &args.output, args.quiet)
+}
+
+/// The report of the result `value` (from file `name`) with its observation file, if given.
+fn report_input<R, O: calib_core::JsonFile>(
+    value: serde_json::Value,
+    name: &str,
+    observations: Option<&str>,
+    from_json: impl FnOnce(serde_json::Value) -> Result<R, String>,
+    report: impl FnOnce(&R, Option<&O>) -> Result<calib_export::ReportInput, calib_export::ExportError>,
+) -> Result<calib_export::ReportInput, Failure> {
+    let result = from_json(value).map_err(|e| Failure(format!("{name}: {e}")))?;
+    let observations = observations.map(O::read).transpose()?;
+    report(&result, observations.as_ref()).map_err(|e| Failure(format!("{name}: {e}")))
 }

@@ -90,78 +90,48 @@ pub trait Report {
     fn summary(&self) -> String;
     /// The JSON form.
     fn to_json(&self) -> Value;
-    /// The calibration for exports (`None`: the result cannot be exported).
-    fn calibrated(&self) -> Option<calib_export::Calibrated>;
+    /// The calibration for exports.
+    fn calibrated(&self) -> calib_export::Calibrated;
 }
 
-impl Report for calib_single::Calibration {
-    fn elapsed_mut(&mut self) -> &mut Duration {
-        &mut self.elapsed
-    }
-    fn termination(&self) -> &Termination {
-        &self.solver.termination
-    }
-    fn warnings(&self) -> &[calib_core::Warning] {
-        &self.warnings
-    }
-    fn summary(&self) -> String {
-        calib_single::Calibration::summary(self)
-    }
-    fn to_json(&self) -> Value {
-        calib_single::Calibration::to_json(self)
-    }
-    fn calibrated(&self) -> Option<calib_export::Calibrated> {
-        Some(calib_export::Calibrated::Single(
-            calib_export::CameraCalibration::from(self),
-        ))
-    }
+/// [`Report`] for a result type with `elapsed`, `solver`, `warnings`, `summary()` and
+/// `to_json()`, exported as the `Calibrated` variant `$variant` of `$export::from(result)`.
+macro_rules! report_for {
+    ($result:ty, $variant:ident, $export:ty) => {
+        impl Report for $result {
+            fn elapsed_mut(&mut self) -> &mut Duration {
+                &mut self.elapsed
+            }
+            fn termination(&self) -> &Termination {
+                &self.solver.termination
+            }
+            fn warnings(&self) -> &[calib_core::Warning] {
+                &self.warnings
+            }
+            fn summary(&self) -> String {
+                <$result>::summary(self)
+            }
+            fn to_json(&self) -> Value {
+                <$result>::to_json(self)
+            }
+            fn calibrated(&self) -> calib_export::Calibrated {
+                calib_export::Calibrated::$variant(<$export>::from(self))
+            }
+        }
+    };
 }
 
-impl Report for calib_stereo::StereoCalibration {
-    fn elapsed_mut(&mut self) -> &mut Duration {
-        &mut self.elapsed
-    }
-    fn termination(&self) -> &Termination {
-        &self.solver.termination
-    }
-    fn warnings(&self) -> &[calib_core::Warning] {
-        &self.warnings
-    }
-    fn summary(&self) -> String {
-        calib_stereo::StereoCalibration::summary(self)
-    }
-    fn to_json(&self) -> Value {
-        calib_stereo::StereoCalibration::to_json(self)
-    }
-    fn calibrated(&self) -> Option<calib_export::Calibrated> {
-        Some(calib_export::Calibrated::Stereo(
-            calib_export::StereoRig::from(self),
-        ))
-    }
-}
-
-impl Report for calib_rig::RigCalibration {
-    fn elapsed_mut(&mut self) -> &mut Duration {
-        &mut self.elapsed
-    }
-    fn termination(&self) -> &Termination {
-        &self.solver.termination
-    }
-    fn warnings(&self) -> &[calib_core::Warning] {
-        &self.warnings
-    }
-    fn summary(&self) -> String {
-        calib_rig::RigCalibration::summary(self)
-    }
-    fn to_json(&self) -> Value {
-        calib_rig::RigCalibration::to_json(self)
-    }
-    fn calibrated(&self) -> Option<calib_export::Calibrated> {
-        Some(calib_export::Calibrated::Rig(
-            calib_export::CameraRig::from(self),
-        ))
-    }
-}
+report_for!(
+    calib_single::Calibration,
+    Single,
+    calib_export::CameraCalibration
+);
+report_for!(
+    calib_stereo::StereoCalibration,
+    Stereo,
+    calib_export::StereoRig
+);
+report_for!(calib_rig::RigCalibration, Rig, calib_export::CameraRig);
 
 /// Runs `calibrate` `output.repeat` times (at least once), keeps the last result with the median
 /// wall time, and reports it: an error for a numerical failure, otherwise the summary on stdout
@@ -200,10 +170,7 @@ pub fn calibrate_and_report<R: Report>(
         write_json(path, &json)?;
     }
     if !targets.is_empty() {
-        let calibrated = result
-            .calibrated()
-            .ok_or_else(|| Failure("--export: this result cannot be exported yet".into()))?;
-        crate::after::write_exports(&calibrated, &targets, inputs, output.quiet)?;
+        crate::after::write_exports(&result.calibrated(), &targets, inputs, output.quiet)?;
     }
     Ok(result)
 }

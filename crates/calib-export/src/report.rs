@@ -144,6 +144,51 @@ fn check_view_rms(
     Ok(())
 }
 
+/// One view of a report: the observed points (when the observation file is given, the view
+/// `observed` of it; `None` inside `Some` when the file lacks the view) checked against the
+/// stored RMS at `pose`. `what` names the view in messages.
+fn report_view(
+    camera: &AnyCamera,
+    name: String,
+    pose: Pose,
+    rms: f64,
+    rejected: &[usize],
+    observed: Option<Option<&calib_core::View>>,
+    what: &str,
+) -> Result<ReportView, ExportError> {
+    let points = match observed {
+        None => None,
+        Some(None) => return Err(observation_mismatch(&format!("no {what}"))),
+        Some(Some(view)) => {
+            if rejected.iter().any(|&i| i >= view.object_points.len()) {
+                return Err(observation_mismatch(&format!("{what} has fewer points")));
+            }
+            let points: ViewPoints = (
+                view.object_points.clone(),
+                view.image_points.iter().map(|q| q.coords).collect(),
+            );
+            check_view_rms(camera, &pose, &points, rejected, rms, what)?;
+            Some(points)
+        }
+    };
+    Ok(ReportView {
+        name,
+        pose,
+        rms,
+        points,
+        rejected: rejected.to_vec(),
+    })
+}
+
+/// The name of a rig's camera in a report: its own, else `fallback`.
+fn camera_name(estimate: &calib_core::CameraEstimate, fallback: String) -> String {
+    if estimate.name.is_empty() {
+        fallback
+    } else {
+        estimate.name.clone()
+    }
+}
+
 impl ReportInput {
     /// The report of a single-camera result, with the observations it was calibrated from (if
     /// given: they must be the same file).
@@ -151,48 +196,21 @@ impl ReportInput {
         result: &calib_single::Calibration,
         observations: Option<&calib_single::Observations>,
     ) -> Result<Self, ExportError> {
-        let mut views = Vec::new();
-        for v in &result.views {
-            let points = match observations {
-                Some(o) => {
-                    let view = o
-                        .views
-                        .get(v.index)
-                        .ok_or_else(|| observation_mismatch(&format!("no view {}", v.index)))?;
-                    if v.rejected_points
-                        .iter()
-                        .any(|&i| i >= view.object_points.len())
-                    {
-                        return Err(observation_mismatch(&format!(
-                            "view {} has fewer points",
-                            v.index
-                        )));
-                    }
-                    Some((
-                        view.object_points.clone(),
-                        view.image_points.iter().map(|p| p.coords).collect(),
-                    ))
-                }
-                None => None,
-            };
-            if let Some(points) = &points {
-                check_view_rms(
+        let views = result
+            .views
+            .iter()
+            .map(|v| {
+                report_view(
                     &result.camera,
-                    &v.pose,
-                    points,
-                    &v.rejected_points,
+                    v.name.clone(),
+                    v.pose,
                     v.rms,
+                    &v.rejected_points,
+                    observations.map(|o| o.views.get(v.index)),
                     &format!("view {} ({})", v.index, v.name),
-                )?;
-            }
-            views.push(ReportView {
-                name: v.name.clone(),
-                pose: v.pose,
-                rms: v.rms,
-                points,
-                rejected: v.rejected_points.clone(),
-            });
-        }
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(ReportInput {
             title: "Single-camera calibration".into(),
             summary: result.summary(),
@@ -215,69 +233,39 @@ impl ReportInput {
     ) -> Result<Self, ExportError> {
         let mut cameras = Vec::new();
         for (side, estimate) in [(0, &result.left), (1, &result.right)] {
-            let mut views = Vec::new();
-            for p in &result.pairs {
-                let pose = if side == 0 {
-                    p.left_pose
-                } else {
-                    result.rig.compose(&p.left_pose)
-                };
-                let rejected = if side == 0 {
-                    &p.rejected_left
-                } else {
-                    &p.rejected_right
-                };
-                let points = match observations {
-                    Some(o) => {
-                        let pair = o
-                            .pairs
+            let side_name = ["left", "right"][side];
+            let views = result
+                .pairs
+                .iter()
+                .map(|p| {
+                    let (pose, rejected, name, rms) = if side == 0 {
+                        (p.left_pose, &p.rejected_left, &p.names.0, p.rms_left)
+                    } else {
+                        (
+                            result.rig.compose(&p.left_pose),
+                            &p.rejected_right,
+                            &p.names.1,
+                            p.rms_right,
+                        )
+                    };
+                    let observed = observations.map(|o| {
+                        o.pairs
                             .get(p.index)
-                            .ok_or_else(|| observation_mismatch(&format!("no pair {}", p.index)))?;
-                        let view = if side == 0 { &pair.left } else { &pair.right };
-                        if rejected.iter().any(|&i| i >= view.object_points.len()) {
-                            return Err(observation_mismatch(&format!(
-                                "pair {} has fewer points",
-                                p.index
-                            )));
-                        }
-                        Some((
-                            view.object_points.clone(),
-                            view.image_points.iter().map(|q| q.coords).collect(),
-                        ))
-                    }
-                    None => None,
-                };
-                let name = if side == 0 {
-                    p.names.0.clone()
-                } else {
-                    p.names.1.clone()
-                };
-                let rms = if side == 0 { p.rms_left } else { p.rms_right };
-                if let Some(points) = &points {
-                    check_view_rms(
+                            .map(|pair| if side == 0 { &pair.left } else { &pair.right })
+                    });
+                    report_view(
                         &estimate.camera,
-                        &pose,
-                        points,
-                        rejected,
+                        name.clone(),
+                        pose,
                         rms,
-                        &format!("pair {} ({})", p.index, ["left", "right"][side]),
-                    )?;
-                }
-                views.push(ReportView {
-                    name,
-                    pose,
-                    rms,
-                    points,
-                    rejected: rejected.clone(),
-                });
-            }
-            let name = if estimate.name.is_empty() {
-                ["left", "right"][side].to_string()
-            } else {
-                estimate.name.clone()
-            };
+                        rejected,
+                        observed,
+                        &format!("pair {} ({side_name})", p.index),
+                    )
+                })
+                .collect::<Result<Vec<_>, _>>()?;
             cameras.push(ReportCamera {
-                name,
+                name: camera_name(estimate, side_name.to_string()),
                 camera: estimate.camera.clone(),
                 image_size: estimate.image_size,
                 fixed: fixed_indices(&estimate.camera, &estimate.fixed_parameters),
@@ -294,6 +282,7 @@ impl ReportInput {
             }),
         })
     }
+
     /// The report of a rig result (one section per camera; a camera's pose in a frame is the
     /// frame's board pose in the reference camera composed with the camera's rig transform).
     /// The observations, if given, must be the file the rig was calibrated from.
@@ -313,62 +302,32 @@ impl ReportInput {
         let mut cameras = Vec::with_capacity(result.cameras.len());
         for (c, rig_camera) in result.cameras.iter().enumerate() {
             let estimate = &rig_camera.estimate;
-            let name = if estimate.name.is_empty() {
-                format!("camera {c}")
-            } else {
-                estimate.name.clone()
-            };
+            let name = camera_name(estimate, format!("camera {c}"));
             let mut views = Vec::new();
             for frame in &result.frames {
                 let Some(view) = frame.views.iter().find(|v| v.camera == c) else {
                     continue;
                 };
-                let pose = rig_camera.transform.compose(&frame.pose);
-                let what = format!("frame {} (camera '{name}')", frame.index);
-                let observed = match observations {
-                    Some(o) => Some(
-                        o.frames
-                            .get(frame.index)
-                            .and_then(|f| f.observations.iter().find(|x| x.camera == c))
-                            .ok_or_else(|| observation_mismatch(&format!("no {what}")))?,
-                    ),
-                    None => None,
-                };
-                let points = match observed {
-                    Some(obs) => {
-                        if view
-                            .rejected_points
-                            .iter()
-                            .any(|&i| i >= obs.view.object_points.len())
-                        {
-                            return Err(observation_mismatch(&format!("{what} has fewer points")));
-                        }
-                        let points = (
-                            obs.view.object_points.clone(),
-                            obs.view.image_points.iter().map(|q| q.coords).collect(),
-                        );
-                        check_view_rms(
-                            &estimate.camera,
-                            &pose,
-                            &points,
-                            &view.rejected_points,
-                            view.rms,
-                            &what,
-                        )?;
-                        Some(points)
-                    }
-                    None => None,
-                };
-                views.push(ReportView {
-                    name: observed
-                        .map(|o| o.view.name.clone())
-                        .filter(|n| !n.is_empty())
-                        .unwrap_or_else(|| format!("frame {}", frame.index)),
-                    pose,
-                    rms: view.rms,
-                    points,
-                    rejected: view.rejected_points.clone(),
+                let observed = observations.map(|o| {
+                    o.frames
+                        .get(frame.index)
+                        .and_then(|f| f.observations.iter().find(|x| x.camera == c))
+                        .map(|x| &x.view)
                 });
+                let view_name = observed
+                    .flatten()
+                    .map(|v| v.name.clone())
+                    .filter(|n| !n.is_empty())
+                    .unwrap_or_else(|| format!("frame {}", frame.index));
+                views.push(report_view(
+                    &estimate.camera,
+                    view_name,
+                    rig_camera.transform.compose(&frame.pose),
+                    view.rms,
+                    &view.rejected_points,
+                    observed,
+                    &format!("frame {} (camera '{name}')", frame.index),
+                )?);
             }
             cameras.push(ReportCamera {
                 name,
