@@ -213,6 +213,15 @@ fn camera_tree(
     })
 }
 
+/// The board poses of the frames cameras `a` and `b` both saw, in `a`'s and in `b`'s frame.
+fn shared_frame_poses(starts: &[CameraStart], a: usize, b: usize) -> (Vec<Pose>, Vec<Pose>) {
+    starts[a]
+        .poses
+        .iter()
+        .filter_map(|(f, pose)| starts[b].poses.get(f).map(|other| (*pose, *other)))
+        .unzip()
+}
+
 /// Each camera's start transform from the reference: averaged over the frames it shares with
 /// its parent in the tree ([`least_squares_rig`], the stereo start) and chained from the root.
 fn initial_transforms(
@@ -224,13 +233,7 @@ fn initial_transforms(
     let mut transforms = vec![Pose::identity(); n];
     for &c in &tree.order[1..] {
         let p = tree.parent[c].expect("every camera but the reference has a parent");
-        let (mut from, mut to) = (Vec::new(), Vec::new());
-        for (f, pose) in &starts[p].poses {
-            if let Some(other) = starts[c].poses.get(f) {
-                from.push(*pose);
-                to.push(*other);
-            }
-        }
+        let (mut from, mut to) = shared_frame_poses(starts, p, c);
         // Robust averaging: frames whose own transform disagrees with the others' by more
         // than stereo's mismatch limit (corners numbered differently in the two views, views
         // from different moments) are left out of the start; the joint stage then treats their
@@ -315,13 +318,7 @@ fn repair_transforms(
             continue;
         }
         let p = tree.parent[c].expect("every camera but the reference has a parent");
-        let (mut from, mut to) = (Vec::new(), Vec::new());
-        for (f, pose) in &starts[p].poses {
-            if let Some(other) = starts[c].poses.get(f) {
-                from.push(*pose);
-                to.push(*other);
-            }
-        }
+        let (from, to) = shared_frame_poses(starts, p, c);
         let best = candidate_rigs(&from, &to)
             .into_iter()
             .filter_map(|edge| {
