@@ -38,7 +38,7 @@ pub fn calibrate(
         let mut prepared = prepare_camera(&views, observations.image_size, options)?;
         let problem = prepared.take_problem("camera");
         let solve_start = Instant::now();
-        match calib_core::solve(&problem, &options.solve_options()) {
+        match calib_core::solve(&problem, &prepared.solve_options(&options.solve_options())) {
             Ok(solution) => break (prepared, solution, solve_start.elapsed()),
             // A view whose points mostly miss the model is wrong as a whole: drop it and start
             // again without it.

@@ -255,6 +255,13 @@ fn check_camera(set: &str, camera: &str) {
                 println!("{}", summary(&case, &result, &theirs));
                 assert_converged(&case, &result, &theirs);
                 assert_same_minimum(&case, model, &result, &theirs);
+                // rational8 starts from the brown-conrady5 minimum with the warm-start damping
+                // (`DampingPolicy::hybrid_warm`): 22 to 37 iterations on these cameras. The
+                // hybrid policy from the same start needed 37 to 51.
+                if model == CameraModel::Rational8 {
+                    let iterations = result.solver.iterations.len();
+                    assert!(iterations <= 40, "{case}: {iterations} iterations");
+                }
             }
             Expect::LowerMinimum => {
                 let result = default.unwrap_or_else(|e| panic!("{case}: {e}"));

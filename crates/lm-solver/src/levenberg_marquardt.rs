@@ -54,6 +54,8 @@ pub enum DampingPolicy {
         factor: f64,
         /// Step attempts before switching to the Marquardt policy.
         switch_after: usize,
+        /// Marquardt's initial `lambda` at the switch.
+        marquardt_initial: f64,
     },
 }
 
@@ -66,12 +68,30 @@ impl DampingPolicy {
         }
     }
 
-    /// The additive policy (the text's constants) for 20 step attempts, then Marquardt's.
+    /// The additive policy (the text's constants) for 20 step attempts, then Marquardt's (from
+    /// Ceres' initial `lambda`, 1e-4).
     pub const fn hybrid() -> Self {
         DampingPolicy::Hybrid {
             initial: 0.01,
             factor: 10.0,
             switch_after: 20,
+            marquardt_initial: 1e-4,
+        }
+    }
+
+    /// The hybrid policy for a *warm* start, one that already minimizes a nested simpler
+    /// problem (a rational lens model started from the `brown-conrady5` minimum): 12 additive
+    /// attempts, then Marquardt's from `lambda = 1e-8`. From such a start the additive phase
+    /// alternates accepted and rejected steps along the new parameters' flat valley, and
+    /// Marquardt's damping, which falls by at most 3x per accepted step, spends about 8 steps
+    /// coming down from 1e-4 to the Gauss-Newton regime that valley needs. Measured on rational
+    /// models: 30 to 40% fewer iterations to the same minimum (`docs/benchmarks-models.md`).
+    pub const fn hybrid_warm() -> Self {
+        DampingPolicy::Hybrid {
+            initial: 0.01,
+            factor: 10.0,
+            switch_after: 12,
+            marquardt_initial: 1e-8,
         }
     }
 
@@ -393,11 +413,15 @@ impl Solver {
             if iterations.len() >= options.max_iterations {
                 break Termination::MaxIterations;
             }
-            if let DampingPolicy::Hybrid { switch_after, .. } = options.damping
+            if let DampingPolicy::Hybrid {
+                switch_after,
+                marquardt_initial,
+                ..
+            } = options.damping
                 && iterations.len() == switch_after
             {
                 policy = DampingPolicy::marquardt();
-                lambda = policy.initial_lambda();
+                lambda = marquardt_initial;
                 nu = 2.0;
                 diagonal_stale = true;
             }
