@@ -215,12 +215,36 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
         n: usize,
     ) {
         debug_assert_eq!(targets.len(), F + N);
-        for (a, target) in targets.iter().enumerate() {
-            let Some((ca, fa)) = *target else { continue };
-            gradient[ca] += fa * self.gradient(a);
-            for (c, other) in targets.iter().enumerate() {
-                if let Some((cc, fc)) = *other {
-                    gram[ca + cc * n] += fa * fc * self.entry(a, c);
+        let (fixed, model) = targets.split_at(F);
+        // Each pair once from the upper triangle of the sums, added at both (a, c) and (c, a)
+        // (the same product either way, so the result equals the plain double loop's).
+        let mut add = |(ca, fa): (usize, f64), (cc, fc): (usize, f64), diagonal: bool, v: f64| {
+            let value = fa * fc * v;
+            gram[ca + cc * n] += value;
+            if !diagonal {
+                gram[cc + ca * n] += value;
+            }
+        };
+        for (a, target) in fixed.iter().enumerate() {
+            let Some(ta) = *target else { continue };
+            gradient[ta.0] += ta.1 * self.sum_gradient_f[a];
+            for (c, other) in fixed.iter().enumerate().skip(a) {
+                if let Some(tc) = *other {
+                    add(ta, tc, c == a, self.sums_ff[a][c]);
+                }
+            }
+            for (c, other) in model.iter().enumerate() {
+                if let Some(tc) = *other {
+                    add(ta, tc, false, self.sums_fn[a][c]);
+                }
+            }
+        }
+        for (a, target) in model.iter().enumerate() {
+            let Some(ta) = *target else { continue };
+            gradient[ta.0] += ta.1 * self.sum_gradient_n[a];
+            for (c, other) in model.iter().enumerate().skip(a) {
+                if let Some(tc) = *other {
+                    add(ta, tc, c == a, self.sums_nn[a][c]);
                 }
             }
         }
