@@ -39,8 +39,8 @@ pub(crate) fn prepare_chunks(ne: &mut NormalEquations, dense_reduced_dim: Option
 }
 
 /// Factorizes the damped `V_e` of every eliminated block of a chunk and forms `Y_e`, `z_e`.
-/// With `dense_partial`, also accumulates `-Y_e Y_e^T` and `Y_e z_e` into the chunk's dense
-/// partial Schur complement and right-hand side (reduced layout, `n x n`).
+/// With `dense_partial`, also accumulates `-Y_e Y_e^T` (upper triangle) and `Y_e z_e` into the
+/// chunk's dense partial Schur complement and right-hand side (reduced layout, `n x n`).
 ///
 /// Sets `chunk.solve_failed` if some damped `V_e` is not positive definite.
 pub(crate) fn eliminate_chunk(
@@ -111,11 +111,11 @@ pub(crate) fn eliminate_chunk(
                         acc += y[lj + k * rows] * z[k];
                     }
                     chunk.rhs_partial[col] += acc;
-                    // S -= Y Y^T (lower and upper, full)
+                    // S -= Y Y^T, upper triangle only (`assemble_dense_schur` mirrors it).
                     for &(ra_i, off_i) in &layout.coupled {
                         let di = problem.dims[problem.reduced_blocks[ra_i]];
                         let gi = problem.reduced_offsets[ra_i];
-                        for ci in 0..di {
+                        for ci in 0..di.min((col + 1).saturating_sub(gi)) {
                             let li = off_i + ci;
                             let mut acc = 0.0;
                             for k in 0..d {
@@ -203,6 +203,12 @@ pub(crate) fn assemble_dense_schur(problem: &Problem, ne: &NormalEquations, s: &
     for chunk in &ne.chunks {
         for (a, b) in s.iter_mut().zip(&chunk.s_partial) {
             *a += b;
+        }
+    }
+    // The partial complements hold the upper triangle: mirror it (the same sums either way).
+    for j in 0..n {
+        for i in j + 1..n {
+            s[i + j * n] = s[j + i * n];
         }
     }
 }
