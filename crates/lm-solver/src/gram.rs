@@ -225,27 +225,20 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
                 gram[cc + ca * n] += value;
             }
         };
-        for (a, target) in fixed.iter().enumerate() {
-            let Some(ta) = *target else { continue };
+        upper_triangle(fixed, |a, c| self.sums_ff[a][c], &mut add);
+        upper_triangle(model, |a, c| self.sums_nn[a][c], &mut add);
+        for (a, ta) in fixed.iter().enumerate() {
+            let Some(ta) = *ta else { continue };
             gradient[ta.0] += ta.1 * self.sum_gradient_f[a];
-            for (c, other) in fixed.iter().enumerate().skip(a) {
-                if let Some(tc) = *other {
-                    add(ta, tc, c == a, self.sums_ff[a][c]);
-                }
-            }
-            for (c, other) in model.iter().enumerate() {
-                if let Some(tc) = *other {
+            for (c, tc) in model.iter().enumerate() {
+                if let Some(tc) = *tc {
                     add(ta, tc, false, self.sums_fn[a][c]);
                 }
             }
         }
-        for (a, target) in model.iter().enumerate() {
-            let Some(ta) = *target else { continue };
-            gradient[ta.0] += ta.1 * self.sum_gradient_n[a];
-            for (c, other) in model.iter().enumerate().skip(a) {
-                if let Some(tc) = *other {
-                    add(ta, tc, c == a, self.sums_nn[a][c]);
-                }
+        for (tc, g) in model.iter().zip(&self.sum_gradient_n) {
+            if let Some((cc, fc)) = *tc {
+                gradient[cc] += fc * g;
             }
         }
     }
@@ -266,6 +259,24 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
             gradient[ca] += fa * self.gradient(a);
             for &(b, cb, fb) in entries {
                 gram[ca + cb * n] += fa * fb * self.entry(a, b);
+            }
+        }
+    }
+}
+
+/// Calls `add(target a, target c, a == c, sums(a, c))` for every pair `a <= c` of present
+/// targets: one diagonal block of [`CompactGram::scatter`].
+#[inline(always)]
+fn upper_triangle(
+    targets: &[Option<(usize, f64)>],
+    sums: impl Fn(usize, usize) -> f64,
+    add: &mut impl FnMut((usize, f64), (usize, f64), bool, f64),
+) {
+    for (a, ta) in targets.iter().enumerate() {
+        let Some(ta) = *ta else { continue };
+        for (c, tc) in targets.iter().enumerate().skip(a) {
+            if let Some(tc) = *tc {
+                add(ta, tc, c == a, sums(a, c));
             }
         }
     }
