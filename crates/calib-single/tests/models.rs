@@ -187,3 +187,42 @@ fn every_model_converges_over_the_population() {
         assert!(at_minimum >= 20, "{model}: {at_minimum}");
     }
 }
+
+/// A rational model starts from the `brown-conrady5` minimum (a warm start) and is refined with
+/// the warm-start damping; a damping the user chose is kept, and a model started from the closed
+/// form keeps the default.
+#[test]
+fn only_warm_starts_get_the_warm_start_damping() {
+    use calib_core::prepare_camera;
+    use lm_solver::DampingPolicy;
+    let set = generate(&config(CameraModel::Rational8, 11, 0.1)).unwrap();
+    let views: Vec<_> = set.observations.views.iter().enumerate().collect();
+    let size = set.observations.image_size;
+    for (model, warm) in [
+        (CameraModel::Rational8, true),
+        (CameraModel::ThinPrism12, true),
+        (CameraModel::BrownConrady5, false),
+    ] {
+        let options = options(model);
+        let prepared = prepare_camera(&views, size, &options).unwrap();
+        assert_eq!(prepared.warm_start, warm, "{model}");
+        let default = options.solve_options();
+        let expected = if warm {
+            DampingPolicy::hybrid_warm()
+        } else {
+            DampingPolicy::hybrid()
+        };
+        assert_eq!(
+            prepared.solve_options(&default).solver.damping,
+            expected,
+            "{model}"
+        );
+        let mut chosen = default.clone();
+        chosen.solver.damping = DampingPolicy::marquardt();
+        assert_eq!(
+            prepared.solve_options(&chosen).solver.damping,
+            DampingPolicy::marquardt(),
+            "{model}"
+        );
+    }
+}
