@@ -677,27 +677,6 @@ fn other_damping(damping: DampingPolicy) -> Option<DampingPolicy> {
     }
 }
 
-/// The report of a retried solve: the retry's, with the first attempt's iterations and
-/// evaluations before its own, so that counts and times cover both.
-fn merge_reports(first: SolverReport, mut retry: SolverReport) -> SolverReport {
-    let mut iterations = first.iterations;
-    let offset = iterations.len();
-    for record in &mut retry.iterations {
-        record.iteration += offset;
-    }
-    iterations.append(&mut retry.iterations);
-    retry.iterations = iterations;
-    retry.initial_cost = first.initial_cost;
-    retry.accepted_steps += first.accepted_steps;
-    retry.residual_evaluations += first.residual_evaluations;
-    retry.jacobian_evaluations += first.jacobian_evaluations;
-    retry.linear_solves += first.linear_solves;
-    retry.evaluate_time += first.evaluate_time;
-    retry.solve_time += first.solve_time;
-    retry.total_time += first.total_time;
-    retry
-}
-
 fn solve_with<R: RotationParameterization>(
     problem: &JointProblem,
     options: &SolveOptions,
@@ -739,7 +718,7 @@ fn solve_with<R: RotationParameterization>(
         if !stopped_at_pole(&cost, retry.problem(), &retry_x) {
             solver = retry;
             x = retry_x;
-            report = merge_reports(report, retry_report);
+            report = report.followed_by(retry_report);
         }
     }
     // Zero-weight points count as residuals for the solver but carry no information: rescale

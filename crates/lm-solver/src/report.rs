@@ -127,6 +127,32 @@ pub struct SolverReport {
     pub total_time: Duration,
 }
 
+impl SolverReport {
+    /// The report of a solve that was run again (`retry`, from the same start or not) after
+    /// this one: the retry's termination and final cost, this solve's initial cost, and both
+    /// solves' step attempts (renumbered to follow this one's), evaluations, solves and times.
+    pub fn followed_by(self, mut retry: SolverReport) -> SolverReport {
+        let mut iterations = self.iterations;
+        let offset = iterations.len();
+        for record in &mut retry.iterations {
+            record.iteration += offset;
+        }
+        iterations.append(&mut retry.iterations);
+        SolverReport {
+            iterations,
+            initial_cost: self.initial_cost,
+            accepted_steps: self.accepted_steps + retry.accepted_steps,
+            residual_evaluations: self.residual_evaluations + retry.residual_evaluations,
+            jacobian_evaluations: self.jacobian_evaluations + retry.jacobian_evaluations,
+            linear_solves: self.linear_solves + retry.linear_solves,
+            evaluate_time: self.evaluate_time + retry.evaluate_time,
+            solve_time: self.solve_time + retry.solve_time,
+            total_time: self.total_time + retry.total_time,
+            ..retry
+        }
+    }
+}
+
 /// JSON form of the report (with the `serde` feature): the keys of `docs/formats.md`
 /// (`termination`, `converged`, `iterations`, ..., `per_iteration`), times in seconds.
 #[cfg(feature = "serde")]
@@ -339,5 +365,59 @@ mod tests {
         assert_eq!(back.iterations.len(), 1);
         assert!(back.iterations[0].gain_ratio.is_nan());
         assert_eq!(back.total_time, report.total_time);
+    }
+}
+
+#[cfg(test)]
+mod followed_by_tests {
+    use super::*;
+
+    fn report(attempts: usize, cost: (f64, f64), termination: Termination) -> SolverReport {
+        let record = |i| IterationRecord {
+            iteration: i + 1,
+            cost: cost.0,
+            trial_cost: cost.1,
+            gradient_max_norm: 1.0,
+            step_norm: 0.1,
+            gain_ratio: 0.5,
+            lambda: 0.01,
+            accepted: true,
+            solve_succeeded: true,
+            evaluate_time: Duration::from_millis(1),
+            solve_time: Duration::from_millis(1),
+        };
+        SolverReport {
+            termination,
+            initial_cost: cost.0,
+            final_cost: cost.1,
+            iterations: (0..attempts).map(record).collect(),
+            accepted_steps: attempts,
+            residual_evaluations: 1,
+            jacobian_evaluations: attempts + 1,
+            linear_solves: attempts,
+            linear_solver: LinearSolverKind::DenseSchur,
+            num_residuals: 10,
+            num_free_parameters: 3,
+            evaluate_time: Duration::from_millis(attempts as u64),
+            solve_time: Duration::from_millis(attempts as u64),
+            total_time: Duration::from_millis(3 * attempts as u64),
+        }
+    }
+
+    #[test]
+    fn a_retry_report_counts_both_solves() {
+        let first = report(3, (9.0, 5.0), Termination::ParameterTolerance);
+        let retry = report(2, (9.0, 4.0), Termination::FunctionTolerance);
+        let both = first.followed_by(retry);
+        assert_eq!(both.termination, Termination::FunctionTolerance);
+        assert_eq!((both.initial_cost, both.final_cost), (9.0, 4.0));
+        let numbers: Vec<usize> = both.iterations.iter().map(|r| r.iteration).collect();
+        assert_eq!(numbers, [1, 2, 3, 4, 5]);
+        assert_eq!(both.accepted_steps, 5);
+        assert_eq!(both.residual_evaluations, 2);
+        assert_eq!(both.jacobian_evaluations, 7);
+        assert_eq!(both.linear_solves, 5);
+        assert_eq!(both.evaluate_time, Duration::from_millis(5));
+        assert_eq!(both.total_time, Duration::from_millis(15));
     }
 }
