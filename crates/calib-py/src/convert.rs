@@ -310,16 +310,31 @@ pub fn flat_out<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
     PyArray1::from_slice(py, v)
 }
 
-/// Rodrigues rotation vector and translation of a pose, as two `(3, 1)` arrays.
-pub fn rvec_tvec<'py>(
+/// The Rodrigues rotation vectors of `poses`, one `(3, 1)` array each (cv2's `rvecs`).
+pub fn rvecs_out<'a, 'py>(
     py: Python<'py>,
-    pose: &Pose,
-) -> (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>) {
-    let w = AxisAngle::from_matrix(&pose.rotation);
-    let t = pose.translation;
-    (
-        column_out(py, &[w.x, w.y, w.z]),
-        column_out(py, &[t.x, t.y, t.z]),
+    poses: impl IntoIterator<Item = &'a Pose>,
+) -> PyResult<Bound<'py, PyList>> {
+    list_out(
+        py,
+        poses.into_iter().map(|pose| {
+            let w = AxisAngle::from_matrix(&pose.rotation);
+            column_out(py, &[w.x, w.y, w.z])
+        }),
+    )
+}
+
+/// The translations of `poses`, one `(3, 1)` array each (cv2's `tvecs`).
+pub fn tvecs_out<'a, 'py>(
+    py: Python<'py>,
+    poses: impl IntoIterator<Item = &'a Pose>,
+) -> PyResult<Bound<'py, PyList>> {
+    list_out(
+        py,
+        poses.into_iter().map(|pose| {
+            let t = pose.translation;
+            column_out(py, &[t.x, t.y, t.z])
+        }),
     )
 }
 

@@ -1,7 +1,7 @@
 //! `calibrate_rig`: `calib_rig::calibrate_rig` for N cameras from NumPy arrays.
 
 use crate::calibration_error;
-use crate::convert::{self, column_out, flat_out, mat3_out, row_out, rvec_tvec};
+use crate::convert::{self, column_out, flat_out, mat3_out, row_out};
 use crate::options::{self, Common};
 use crate::stereo::camera_std;
 use calib_core::View;
@@ -445,19 +445,13 @@ impl RigCalibrationResult {
     /// Board-to-reference-camera rotations (Rodrigues), one (3, 1) array per used frame.
     #[getter]
     fn rvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner.frames.iter().map(|f| rvec_tvec(py, &f.pose).0),
-        )
+        convert::rvecs_out(py, self.inner.frames.iter().map(|f| &f.pose))
     }
 
     /// Board-to-reference-camera translations, one (3, 1) array per used frame.
     #[getter]
     fn tvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner.frames.iter().map(|f| rvec_tvec(py, &f.pose).1),
-        )
+        convert::tvecs_out(py, self.inner.frames.iter().map(|f| &f.pose))
     }
 
     /// Input index of each used frame.

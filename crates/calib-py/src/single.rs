@@ -1,7 +1,7 @@
 //! `calibrate_camera`: `calib_single::calibrate` with cv2.calibrateCamera's arguments and results.
 
 use crate::calibration_error;
-use crate::convert::{self, flat_out, mat3_out, row_out, rvec_tvec};
+use crate::convert::{self, flat_out, mat3_out, row_out};
 use crate::options::{self, Common};
 use calib_single::{Calibration, Observations, View, calibrate};
 use numpy::{PyArray1, PyArray2};
@@ -192,19 +192,13 @@ impl CameraCalibration {
     /// Board-to-camera rotations as Rodrigues vectors, one (3, 1) array per used view.
     #[getter]
     fn rvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner.views.iter().map(|v| rvec_tvec(py, &v.pose).0),
-        )
+        convert::rvecs_out(py, self.inner.views.iter().map(|v| &v.pose))
     }
 
     /// Board-to-camera translations, one (3, 1) array per used view (board units).
     #[getter]
     fn tvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner.views.iter().map(|v| rvec_tvec(py, &v.pose).1),
-        )
+        convert::tvecs_out(py, self.inner.views.iter().map(|v| &v.pose))
     }
 
     /// Standard deviations of ``param_names`` (fx, fy, cx, cy, then the coefficients), shape

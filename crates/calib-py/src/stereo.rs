@@ -1,7 +1,7 @@
 //! `stereo_calibrate`: `calib_stereo::calibrate_stereo` with cv2.stereoCalibrate's results.
 
 use crate::calibration_error;
-use crate::convert::{self, column_out, flat_out, mat3_out, row_out, rvec_tvec};
+use crate::convert::{self, column_out, flat_out, mat3_out, row_out};
 use crate::options::{self, Common};
 use crate::single::view_names;
 use calib_core::result::CameraEstimate;
@@ -321,25 +321,13 @@ impl StereoCalibrationResult {
     /// Board-to-first-camera rotations (Rodrigues), one (3, 1) array per used pair.
     #[getter]
     fn rvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner
-                .pairs
-                .iter()
-                .map(|p| rvec_tvec(py, &p.left_pose).0),
-        )
+        convert::rvecs_out(py, self.inner.pairs.iter().map(|p| &p.left_pose))
     }
 
     /// Board-to-first-camera translations, one (3, 1) array per used pair.
     #[getter]
     fn tvecs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        convert::list_out(
-            py,
-            self.inner
-                .pairs
-                .iter()
-                .map(|p| rvec_tvec(py, &p.left_pose).1),
-        )
+        convert::tvecs_out(py, self.inner.pairs.iter().map(|p| &p.left_pose))
     }
 
     /// RMS of each used pair's first and second view, pixels, (pairs, 2) (cv2's
