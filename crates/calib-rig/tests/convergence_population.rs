@@ -8,7 +8,7 @@
 use calib_core::SolveOptions;
 use calib_rig::synthetic::{generate_rig, population};
 use calib_rig::{RigOptions, calibrate_rig, rig_problem};
-use calib_test_support::{Outcome, judge, sweep};
+use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
 
 fn problem(seed: u64) -> Outcome {
     let config = population(seed);
@@ -31,18 +31,19 @@ fn problem(seed: u64) -> Outcome {
         "seed {seed} ({} cameras, {} frames, tilt {:.1} deg, noise {:.2} px)",
         config.cameras, config.frames, config.base.max_tilt_deg, config.base.noise_px
     );
-    let reference = match calib_core::solve(&problem, &solve) {
+    let mut ours = RigOptions::default();
+    ours.outliers = None;
+    let reference = match reference_from_truth(&what, calib_core::solve(&problem, &solve), || {
+        calibrate_rig(&set.observations, &ours).is_err()
+    }) {
         Ok(r) => r,
-        Err(e) if e.to_string().contains("not determined") => return Outcome::NotDetermined,
-        Err(e) => panic!("{what}: the truth start fails: {e}"),
+        Err(outcome) => return outcome,
     };
     let (used, sum) = reference
         .errors
         .iter()
         .fold((0, 0.0), |(n, s), e| (n + e.used, s + e.sum_sq));
     let reference_rms = (sum / used as f64).sqrt();
-    let mut ours = RigOptions::default();
-    ours.outliers = None;
     let ours = calibrate_rig(&set.observations, &ours).map(|r| {
         let converged = r.solver.termination.is_converged();
         (

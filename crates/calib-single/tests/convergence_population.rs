@@ -7,7 +7,7 @@
 
 use calib_single::synthetic::generate;
 use calib_single::{CalibrationOptions, calibrate};
-use calib_test_support::{Outcome, judge, sweep};
+use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
 
 fn problem(seed: u64) -> Outcome {
     let config = calib_core::synthetic::population(seed);
@@ -16,24 +16,16 @@ fn problem(seed: u64) -> Outcome {
     let mut truth = options.clone();
     truth.intrinsic_guess = Some(set.camera.intrinsics);
     truth.distortion_guess = Some(set.camera.distortion.clone());
-    let reference = match calibrate(&set.observations, &truth) {
-        Ok(r) => r,
-        // Not determined even from the truth: the data cannot fix the answer, and the default
-        // start must refuse it too.
-        Err(e) if e.to_string().contains("not determined") => {
-            let ours = calibrate(&set.observations, &options);
-            assert!(
-                ours.is_err(),
-                "seed {seed}: accepted an undetermined problem"
-            );
-            return Outcome::NotDetermined;
-        }
-        Err(e) => panic!("seed {seed}: the truth start fails: {e}"),
-    };
     let what = format!(
         "seed {seed} ({} views, tilt {:.1} deg, noise {:.2} px)",
         config.views, config.max_tilt_deg, config.noise_px
     );
+    let reference = match reference_from_truth(&what, calibrate(&set.observations, &truth), || {
+        calibrate(&set.observations, &options).is_err()
+    }) {
+        Ok(r) => r,
+        Err(outcome) => return outcome,
+    };
     // The same points must be in use for the RMS to compare: rms_all_points.
     let ours = calibrate(&set.observations, &options).map(|r| {
         let converged = r.solver.termination.is_converged();

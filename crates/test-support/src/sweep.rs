@@ -120,6 +120,28 @@ pub fn sweep(problems: u64, problem: impl Fn(u64) -> Outcome + Sync) -> Tally {
     a
 }
 
+/// The reference calibration, started from the truth; or [`Outcome::NotDetermined`] when the
+/// data does not determine the answer even from there, after checking that the default start
+/// refuses it as well (`default_refuses`: a problem without an answer must not be answered).
+/// Any other failure of the truth start means the test itself is broken: panics, naming `what`.
+pub fn reference_from_truth<R, E: std::fmt::Display>(
+    what: &str,
+    truth: Result<R, E>,
+    default_refuses: impl FnOnce() -> bool,
+) -> Result<R, Outcome> {
+    match truth {
+        Ok(reference) => Ok(reference),
+        Err(e) if e.to_string().contains("not determined") => {
+            assert!(
+                default_refuses(),
+                "{what}: accepted an undetermined problem"
+            );
+            Err(Outcome::NotDetermined)
+        }
+        Err(e) => panic!("{what}: the truth start fails: {e}"),
+    }
+}
+
 /// Classifies a calibration from the default start against the reference (the truth start):
 /// refused on an error, iteration limit when it did not converge, above when its RMS exceeds
 /// `reference_rms + tolerance` (both over the same points), else at the minimum. `what`
@@ -143,6 +165,25 @@ pub fn judge<E: std::fmt::Display, T: std::fmt::Display>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_truth_reference_separates_undetermined_data_from_broken_tests() {
+        let ok: Result<f64, String> = Ok(0.5);
+        assert_eq!(reference_from_truth("a", ok, || unreachable!()), Ok(0.5));
+        let undetermined: Result<f64, String> = Err("pose of view 3 is not determined".into());
+        assert_eq!(
+            reference_from_truth("b", undetermined.clone(), || true),
+            Err(Outcome::NotDetermined)
+        );
+        let accepted =
+            std::panic::catch_unwind(|| reference_from_truth("c", undetermined, || false));
+        assert!(
+            accepted.is_err(),
+            "an answered undetermined problem must fail the test"
+        );
+        let broken: Result<f64, String> = Err("board outside the image".into());
+        assert!(std::panic::catch_unwind(|| reference_from_truth("d", broken, || true)).is_err());
+    }
 
     #[test]
     fn judge_classifies_and_the_tally_counts_every_problem() {
