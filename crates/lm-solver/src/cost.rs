@@ -157,7 +157,10 @@ pub trait CostFunction: Sync {
     /// products must be those of the corrected residuals and Jacobian (`crate::loss`), group by
     /// group; a cost function that does not handle a loss returns `None` for it. The solver
     /// zeroes the rows and columns of fixed components itself. Results must agree with
-    /// `evaluate` (`lm_solver::numdiff::check_gram` tests that).
+    /// `evaluate` (`lm_solver::numdiff::check_gram` tests that). Summing the returned value group
+    /// by group in residual order, from residuals equal to `evaluate`'s, gives the cost-only
+    /// pass's value to the bit, so that a trial point's cost does not depend on how it was
+    /// evaluated (`SolverOptions::eager_linearization`).
     fn evaluate_gram(
         &self,
         block: ResidualBlockId,

@@ -158,7 +158,14 @@ pub struct SolverOptions {
     /// `true`), instead of the cost alone followed by a linearization if the step is accepted.
     /// When most steps are accepted (as in calibration) this saves one pass over the residuals per
     /// iteration; each rejected step then wastes a linearization. Uses a second set of
-    /// normal-equation buffers.
+    /// normal-equation buffers. Even when eager, a trial whose rejection is predicted gets the
+    /// cost alone: one whose `lambda` is at or below that of the most recent rejected trial
+    /// (along a flat valley the damping alternates between an accepted `lambda` and a rejected
+    /// smaller one) until such a prediction fails (a trial at or below it is accepted) or the
+    /// hybrid policy switches, and under Marquardt's policy every trial right after a rejection
+    /// (its `lambda` grows through runs of rejections). Both modes take the same steps, bit for
+    /// bit when a fused cost function ([`CostFunction::evaluate_gram`]) sums its cost group by
+    /// group in residual order, as the cost-only pass does.
     pub eager_linearization: bool,
 }
 
@@ -401,6 +408,9 @@ impl Solver {
         let mut nu = 2.0;
         let mut diagonal_stale = true;
         let mut last_gain: Option<f64> = None;
+        // `lambda` of the most recent rejected trial while it predicts rejections (see
+        // `SolverOptions::eager_linearization`).
+        let mut rejected_lambda: Option<f64> = None;
 
         let termination = loop {
             let gradient_max_norm = self.ne.gradient_max_norm();
@@ -424,6 +434,7 @@ impl Solver {
                 lambda = marquardt_initial;
                 nu = 2.0;
                 diagonal_stale = true;
+                rejected_lambda = None;
             }
             if let DampingPolicy::Marquardt {
                 min_diagonal,
@@ -505,7 +516,14 @@ impl Solver {
                 }
                 problem.plus(x, &self.step, &mut self.trial);
                 let te = Instant::now();
-                let trial_cost = match self.trial_ne.as_mut() {
+                let rejection_predicted = rejected_lambda.is_some_and(|r| lambda <= r)
+                    || (matches!(policy, DampingPolicy::Marquardt { .. })
+                        && iterations
+                            .last()
+                            .is_some_and(|r: &IterationRecord| !r.accepted));
+                let eager = self.trial_ne.as_mut().filter(|_| !rejection_predicted);
+                let linearized = eager.is_some();
+                let trial_cost = match eager {
                     Some(trial_ne) => {
                         jacobian_evaluations += 1;
                         trial_ne
@@ -531,7 +549,10 @@ impl Solver {
                 if accepted {
                     x.copy_from_slice(&self.trial);
                     let previous = cost;
-                    if let Some(trial_ne) = self.trial_ne.as_mut() {
+                    if rejection_predicted {
+                        rejected_lambda = None;
+                    }
+                    if let Some(trial_ne) = self.trial_ne.as_mut().filter(|_| linearized) {
                         // The trial point is already linearized: make it current.
                         std::mem::swap(&mut self.ne, trial_ne);
                     } else {
@@ -575,6 +596,7 @@ impl Solver {
                 evaluate_time += record.evaluate_time;
             }
             if !accepted {
+                rejected_lambda = Some(lambda);
                 match policy {
                     DampingPolicy::Additive { factor, .. }
                     | DampingPolicy::Hybrid { factor, .. } => lambda *= factor,

@@ -382,7 +382,12 @@ fn evaluate_residual<C: CostFunction>(
             cost_fn.evaluate(id, params, res, None)
         };
         outcome.map_err(|error| EvaluationFailure::Error { residual: r, error })?;
-        let s: f64 = res.iter().map(|v| v * v).sum();
+        // Summed group by group, as a fused path sums its points: the same cost to the bit
+        // whichever path evaluates a point (lazy and eager solves take the same steps).
+        let s: f64 = res
+            .chunks(layout.group)
+            .map(|g| g.iter().map(|v| v * v).sum::<f64>())
+            .sum();
         if !s.is_finite() {
             return Err(EvaluationFailure::NonFinite { residual: r });
         }

@@ -1023,3 +1023,61 @@ fn selected_covariance_of_a_large_sparse_problem_matches_the_dense_inverse() {
     let scale = (dense[(pa, pa)] * dense[(pb, pb)]).sqrt();
     assert!((cross[(0, 0)] - dense[(pa, pb)]).abs() <= 1e-5 * scale);
 }
+
+/// A trial whose rejection is predicted (its `lambda` at or below the last rejected one, or,
+/// under Marquardt's policy, right after a rejection) is evaluated for its cost alone even in
+/// eager mode; the iterates are those of the lazy mode, bit for bit, and fewer Jacobians are
+/// evaluated than trials.
+#[test]
+fn predicted_rejections_skip_the_linearization() {
+    // Starts this far from the truth make every policy reject steps.
+    let (ba, scale) = (BearingAdjustment::generate(8, 40, 1e-3, 23), 3.0);
+    let mut predicted_somewhere = [false; 3];
+    for (p, damping) in [
+        DampingPolicy::additive(),
+        DampingPolicy::marquardt(),
+        DampingPolicy::hybrid(),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for seed in 0..6 {
+            let run = |eager: bool| {
+                let built = ba.build(true);
+                let mut o = SolverOptions::default();
+                o.eager_linearization = eager;
+                o.damping = damping;
+                let mut solver = Solver::new(built.problem, o).unwrap();
+                let mut x = ba.perturbed(scale, seed);
+                let report = solver.solve(&ba, &mut x).unwrap();
+                (x, report)
+            };
+            let (x_eager, eager) = run(true);
+            let (x_lazy, lazy) = run(false);
+            assert_eq!(eager.iterations.len(), lazy.iterations.len(), "{damping:?}");
+            assert_eq!(eager.final_cost.to_bits(), lazy.final_cost.to_bits());
+            assert!(
+                x_eager
+                    .iter()
+                    .zip(&x_lazy)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            );
+            let trials = eager
+                .iterations
+                .iter()
+                .filter(|r| r.trial_cost.is_finite())
+                .count();
+            // Every trial is evaluated once, with or without its Jacobian; an accepted trial
+            // evaluated without one is linearized afterwards.
+            assert!(eager.jacobian_evaluations + eager.residual_evaluations > trials);
+            assert!(eager.jacobian_evaluations <= 1 + trials);
+            let rejected = trials - eager.accepted_steps;
+            if eager.residual_evaluations > 0 {
+                predicted_somewhere[p] = true;
+                assert!(rejected > 0, "a prediction without any rejection");
+                assert!(eager.jacobian_evaluations < 1 + trials);
+            }
+        }
+    }
+    assert_eq!(predicted_somewhere, [true; 3], "no prediction exercised");
+}
