@@ -50,14 +50,41 @@ pub(crate) fn eliminate_chunk(
     dense_partial: bool,
 ) {
     chunk.solve_failed = false;
-    let n = problem.reduced_dim;
     if dense_partial {
         chunk.s_partial.fill(0.0);
         chunk.rhs_partial.fill(0.0);
     }
     for (local, e) in chunk.elim.clone().enumerate() {
+        let d = problem.eliminated[e].dim;
+        // A constant `d` lets the compiler unroll the small loops (the same operations in the
+        // same order): calibration's board poses are 6-dimensional.
+        let factorized = match d {
+            6 => eliminate_block(problem, chunk, damping, dense_partial, local, e, 6),
+            3 => eliminate_block(problem, chunk, damping, dense_partial, local, e, 3),
+            _ => eliminate_block(problem, chunk, damping, dense_partial, local, e, d),
+        };
+        if !factorized {
+            chunk.solve_failed = true;
+            return;
+        }
+    }
+}
+
+/// One eliminated block of [`eliminate_chunk`]: `false` if its damped `V_e` is not positive
+/// definite.
+#[inline(always)]
+fn eliminate_block(
+    problem: &Problem,
+    chunk: &mut Chunk,
+    damping: &[f64],
+    dense_partial: bool,
+    local: usize,
+    e: usize,
+    d: usize,
+) -> bool {
+    let n = problem.reduced_dim;
+    {
         let layout = &problem.eliminated[e];
-        let d = layout.dim;
         let rows = layout.w_rows;
         let base = problem.offsets[layout.block];
         let (vo, wo, go) = (chunk.v_off[local], chunk.w_off[local], chunk.g_off[local]);
@@ -68,31 +95,29 @@ pub(crate) fn eliminate_chunk(
             factor[i + i * d] += damping[base + i];
         }
         if cholesky_in_place(factor, d).is_err() {
-            chunk.solve_failed = true;
-            return;
+            return false;
         }
-        // Y^T = L^-1 W^T: each row of W (a column of W^T) through the forward substitution.
-        // Y is stored like W (rows x d, column-major); work on one row at a time in a small
-        // stack buffer to keep the access pattern simple.
+        // Y^T = L^-1 W^T: every row of W through the forward substitution at once, column by
+        // column of Y (stored like W: rows x d, column-major), so that the inner loops run over
+        // contiguous rows; each entry sees the operations of `forward_substitute` in its order.
         let w = &chunk.w[wo..wo + rows * d];
         let y = &mut chunk.y[wo..wo + rows * d];
-        let mut row = [0.0f64; 64];
-        let mut row_heap;
-        let row: &mut [f64] = if d <= 64 {
-            &mut row[..d]
-        } else {
-            row_heap = vec![0.0; d];
-            &mut row_heap
-        };
-        for i in 0..rows {
-            for j in 0..d {
-                row[j] = w[i + j * rows];
+        for i in 0..d {
+            let (done, rest) = y.split_at_mut(i * rows);
+            let yi = &mut rest[..rows];
+            yi.copy_from_slice(&w[i * rows..(i + 1) * rows]);
+            for k in 0..i {
+                let l = factor[i + k * d];
+                for (a, b) in yi.iter_mut().zip(&done[k * rows..(k + 1) * rows]) {
+                    *a -= l * b;
+                }
             }
-            forward_substitute(factor, d, row);
-            for j in 0..d {
-                y[i + j * rows] = row[j];
+            let diagonal = factor[i + i * d];
+            for a in yi.iter_mut() {
+                *a /= diagonal;
             }
         }
+        let y = &*y;
         let z = &mut chunk.z[go..go + d];
         z.copy_from_slice(&chunk.ge[go..go + d]);
         forward_substitute(factor, d, z);
@@ -111,23 +136,40 @@ pub(crate) fn eliminate_chunk(
                         acc += y[lj + k * rows] * z[k];
                     }
                     chunk.rhs_partial[col] += acc;
-                    // S -= Y Y^T, upper triangle only (`assemble_dense_schur` mirrors it).
+                    // S -= Y Y^T, upper triangle only (`assemble_dense_schur` mirrors it); the
+                    // sums over k run for a column of S at once, each in the order k = 0..d.
                     for &(ra_i, off_i) in &layout.coupled {
                         let di = problem.dims[problem.reduced_blocks[ra_i]];
                         let gi = problem.reduced_offsets[ra_i];
-                        for ci in 0..di.min((col + 1).saturating_sub(gi)) {
-                            let li = off_i + ci;
-                            let mut acc = 0.0;
-                            for k in 0..d {
-                                acc += y[li + k * rows] * y[lj + k * rows];
+                        let count = di.min((col + 1).saturating_sub(gi));
+                        if count == 0 {
+                            continue;
+                        }
+                        let mut acc = [0.0f64; 32];
+                        let mut acc_heap;
+                        let acc: &mut [f64] = if count <= 32 {
+                            &mut acc[..count]
+                        } else {
+                            acc_heap = vec![0.0; count];
+                            &mut acc_heap
+                        };
+                        for k in 0..d {
+                            let yj = y[lj + k * rows];
+                            let yk = &y[off_i + k * rows..][..count];
+                            for (a, b) in acc.iter_mut().zip(yk) {
+                                *a += b * yj;
                             }
-                            chunk.s_partial[(gi + ci) + col * n] -= acc;
+                        }
+                        let column = &mut chunk.s_partial[gi + col * n..][..count];
+                        for (s, a) in column.iter_mut().zip(acc.iter()) {
+                            *s -= a;
                         }
                     }
                 }
             }
         }
     }
+    true
 }
 
 /// Back-substitution for a chunk: `de = -L^-T (z + Y^T dr)` for every eliminated block, written
