@@ -6,7 +6,7 @@ use lm_solver::test_problems::{BearingAdjustment, PoseGraph, Rng};
 use lm_solver::{
     CostFunction, CovarianceError, DampingPolicy, EvaluationError, IterationRecord, JacobianBlocks,
     LinearSolverKind, Loss, ObserverAction, ProblemBuilder, ResidualBlockId, Solver, SolverError,
-    SolverOptions, Termination,
+    SolverOptions, SolverReport, Termination,
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, Rotation3, UnitQuaternion as Quat, Vector3};
 use std::sync::Arc;
@@ -683,6 +683,17 @@ fn termination_reasons_are_reported() {
     }
 }
 
+/// Two solves took the same steps: as many iterations, the same final cost and parameters, to
+/// the bit.
+fn assert_same_steps(a: (&[f64], &SolverReport), b: (&[f64], &SolverReport), what: &str) {
+    assert_eq!(a.1.iterations.len(), b.1.iterations.len(), "{what}");
+    assert_eq!(a.1.final_cost.to_bits(), b.1.final_cost.to_bits(), "{what}");
+    assert!(
+        a.0.iter().zip(b.0).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "{what}"
+    );
+}
+
 /// Eager and lazy linearization take the same steps: the same minimum, the same iterations.
 #[test]
 fn eager_and_lazy_linearization_agree() {
@@ -702,14 +713,7 @@ fn eager_and_lazy_linearization_agree() {
     };
     let (x_eager, eager, std_eager) = run(true);
     let (x_lazy, lazy, std_lazy) = run(false);
-    assert_eq!(eager.iterations.len(), lazy.iterations.len());
-    assert_eq!(eager.final_cost.to_bits(), lazy.final_cost.to_bits());
-    assert!(
-        x_eager
-            .iter()
-            .zip(&x_lazy)
-            .all(|(a, b)| a.to_bits() == b.to_bits())
-    );
+    assert_same_steps((&x_eager, &eager), (&x_lazy, &lazy), "eager and lazy");
     // The covariance reuses the solver's last linearization; it equals a fresh one.
     assert_eq!(std_eager, std_lazy);
 }
@@ -1054,13 +1058,10 @@ fn predicted_rejections_skip_the_linearization() {
             };
             let (x_eager, eager) = run(true);
             let (x_lazy, lazy) = run(false);
-            assert_eq!(eager.iterations.len(), lazy.iterations.len(), "{damping:?}");
-            assert_eq!(eager.final_cost.to_bits(), lazy.final_cost.to_bits());
-            assert!(
-                x_eager
-                    .iter()
-                    .zip(&x_lazy)
-                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            assert_same_steps(
+                (&x_eager, &eager),
+                (&x_lazy, &lazy),
+                &format!("{damping:?}"),
             );
             let trials = eager
                 .iterations
