@@ -108,6 +108,16 @@ pub fn refine(
     options: &RefineOptions,
 ) -> Result<HomographyEstimate, HomographyError> {
     check_configuration(object, image)?;
+    refine_checked(h0, object, image, options)
+}
+
+/// [`refine`] for correspondences whose configuration has been checked (by [`dlt`]).
+fn refine_checked(
+    h0: &Matrix3<f64>,
+    object: &[Point2<f64>],
+    image: &[Point2<f64>],
+    options: &RefineOptions,
+) -> Result<HomographyEstimate, HomographyError> {
     let mut h = scale_to_unit_h33(h0, object)?;
     let n = object.len() as f64;
 
@@ -302,6 +312,7 @@ pub fn estimate(
     image: &[Point2<f64>],
     options: &RefineOptions,
 ) -> Result<HomographyEstimate, HomographyError> {
+    // `dlt` checks the configuration (the same checks and errors as `refine`'s).
     let h0 = dlt(object, image)?;
-    refine(&h0, object, image, options)
+    refine_checked(&h0, object, image, options)
 }
