@@ -407,7 +407,8 @@ where
 {
     let loss = gram.loss();
     let obs = view.observation;
-    let (mut gx, mut gy) = (CompactGram::<F, N>::new(), CompactGram::<F, N>::new());
+    let mut gx = CompactGram::<F, N>::new();
+    let mut gy = CompactGram::<F, N>::new();
     let mut total = 0.0;
     for (i, (x, m)) in obs.object.iter().zip(&obs.pixels).enumerate() {
         let (s, point) = geometry.transform(x);

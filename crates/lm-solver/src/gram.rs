@@ -65,23 +65,13 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
     pub const WIDTH: usize = F + N;
 
     /// An empty accumulator.
+    #[inline(always)]
     pub fn new() -> Self {
-        Self {
-            rows_f: [[0.0; BATCH]; F],
-            rows_n: [[0.0; BATCH]; N],
-            residuals: [0.0; BATCH],
-            filled: 0,
-            lanes_ff: [[[0.0; LANES]; F]; F],
-            lanes_fn: [[[0.0; LANES]; N]; F],
-            lanes_nn: [[[0.0; LANES]; N]; N],
-            gradient_f: [[0.0; LANES]; F],
-            gradient_n: [[0.0; LANES]; N],
-            sums_ff: [[0.0; F]; F],
-            sums_fn: [[0.0; N]; F],
-            sums_nn: [[0.0; N]; N],
-            sum_gradient_f: [0.0; F],
-            sum_gradient_n: [0.0; N],
-        }
+        // SAFETY: every field is an array of `f64` or a `usize`, for which all-zero bits are
+        // the value zero. Written this way the compiler zeroes the caller's slot in place; the
+        // field-by-field literal was built once and copied (two 11 KB copies per view of a
+        // rational8 calibration, 3% of its time).
+        unsafe { std::mem::zeroed() }
     }
 
     /// Adds one row `[fixed, model]` with residual `r`.
