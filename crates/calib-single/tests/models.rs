@@ -117,10 +117,20 @@ fn sigmas_are_honest_for_every_model() {
 }
 
 /// The population of the convergence sweep with each pinhole model swapped in (its default
-/// distortion): every problem the truth start solves, the default start solves to the same
-/// minimum (brown-conrady5: RMS within 1e-5 px; the rational models, whose valley of nearly
-/// equivalent coefficients holds several minima of nearly equal cost: within 0.1%). Problems
-/// that do not determine a model are refused from the truth start too and are counted.
+/// distortion), 60 problems: every problem the truth start solves, the default start solves to
+/// the same minimum (brown-conrady5: RMS within 1e-5 px; the rational models, whose valley of
+/// nearly equivalent coefficients holds several minima of nearly equal cost: within 0.1%).
+/// Problems that do not determine a model are refused from the truth start too and are counted.
+///
+/// brown-conrady5 must never miss. The rational models miss in three ways, counted apart: a
+/// higher minimum of the valley (the one failure a user would not see), the iteration limit
+/// while still creeping along the valley (most at or below the truth start's RMS), and a
+/// refusal when the path ends at a pole of the model. Measured on 90 problems (seeds 0..90):
+/// rational8 4 higher minima, 5 at the limit, 0 refused; thin-prism12 5, 7 and 4
+/// (docs/camera-model.md, "Convergence"). The bounds are those rates plus about two standard
+/// deviations of a count over 60 problems: at 30 problems and one bound for all misses,
+/// thin-prism12 sat at its limit, and any change of the solver's path, down to the last bit of
+/// one cost, moved a problem or two across it.
 #[test]
 fn every_model_converges_over_the_population() {
     for model in [
@@ -128,8 +138,9 @@ fn every_model_converges_over_the_population() {
         CameraModel::Rational8,
         CameraModel::ThinPrism12,
     ] {
-        let (mut at_minimum, mut undetermined, mut missed) = (0, 0, Vec::new());
-        for seed in 0..30 {
+        let (mut at_minimum, mut undetermined) = (0, 0);
+        let (mut higher, mut at_limit, mut refused) = (Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..60 {
             let mut c = population(seed);
             c.model = model;
             c.distortion = default_distortion(model);
@@ -152,39 +163,34 @@ fn every_model_converges_over_the_population() {
             } else {
                 1e-3 * reference.rms_all_points
             };
+            let miss = |r: &calib_single::Calibration| {
+                format!(
+                    "seed {seed}: {} ({} vs {})",
+                    r.solver.termination, r.rms_all_points, reference.rms_all_points
+                )
+            };
             match calibrate(&set.observations, &options(model)) {
-                Ok(r)
-                    if r.solver.termination.is_converged()
-                        && r.rms_all_points <= reference.rms_all_points + tolerance => {}
-                Ok(r) => {
-                    missed.push(format!(
-                        "seed {seed}: {} ({} vs {})",
-                        r.solver.termination, r.rms_all_points, reference.rms_all_points
-                    ));
-                    continue;
+                Ok(r) if !r.solver.termination.is_converged() => at_limit.push(miss(&r)),
+                Ok(r) if r.rms_all_points > reference.rms_all_points + tolerance => {
+                    higher.push(miss(&r))
                 }
-                Err(e) => {
-                    missed.push(format!("seed {seed}: {e}"));
-                    continue;
-                }
+                Ok(_) => at_minimum += 1,
+                Err(e) => refused.push(format!("seed {seed}: {e}")),
             }
-            at_minimum += 1;
         }
         println!(
-            "{model}: {at_minimum} at the minimum, {undetermined} not determined, missed: {missed:?}"
+            "{model}: {at_minimum} at the minimum, {undetermined} not determined; \
+             higher minimum {higher:?}; iteration limit {at_limit:?}; refused {refused:?}"
         );
-        // brown-conrady5 must never miss. The rational models' valley of nearly equivalent
-        // coefficients holds near-equal minima, flat stretches where the solver crawls to its
-        // iteration limit at the same RMS, and points where a pose loses rank: on this population
-        // they miss up to 5 of 30 (measured: rational8 misses 4, thin-prism12 3); documented in
-        // docs/camera-model.md, with brown-conrady5 recommended for narrow lenses.
-        let allowed = if model == CameraModel::BrownConrady5 {
-            0
+        let (max_higher, max_misses) = if model == CameraModel::BrownConrady5 {
+            (0, 0)
         } else {
-            6
+            (7, 15)
         };
-        assert!(missed.len() <= allowed, "{model}: {missed:?}");
-        assert!(at_minimum >= 20, "{model}: {at_minimum}");
+        let misses = higher.len() + at_limit.len() + refused.len();
+        assert!(higher.len() <= max_higher, "{model}: {higher:?}");
+        assert!(misses <= max_misses, "{model}: {misses} misses");
+        assert!(at_minimum >= 36, "{model}: {at_minimum}");
     }
 }
 
