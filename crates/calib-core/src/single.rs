@@ -487,14 +487,22 @@ impl PreparedCamera {
     }
 
     /// The options to solve this camera with: `options`, except that the default damping
-    /// ([`DampingPolicy::hybrid`]) becomes [`DampingPolicy::hybrid_warm`] after a warm start
+    /// ([`DampingPolicy::hybrid`]) becomes a warm-start policy after a warm start
     /// (`warm_start`): from the simpler model's minimum, the hybrid policy's additive phase and
     /// Marquardt's descent from `lambda = 1e-4` cost a third of a rational model's iterations.
-    /// A damping chosen by the user is kept.
+    /// rational8 gets [`DampingPolicy::marquardt_warm`] (Marquardt's steps from `lambda = 1e-8`
+    /// at once); thin-prism12, whose prism terms are nearly interchangeable with the principal
+    /// point and the tangential terms, [`DampingPolicy::hybrid_warm`] (12 short additive steps
+    /// first: Marquardt's at once ends it in a higher minimum on sourishg1/left). Measured on the
+    /// bundled cameras and the 90-problem population of `tests/models.rs`
+    /// (`docs/benchmarks-models.md`). A damping chosen by the user is kept.
     pub fn solve_options(&self, options: &crate::SolveOptions) -> crate::SolveOptions {
         let mut options = options.clone();
         if self.warm_start && options.solver.damping == DampingPolicy::hybrid() {
-            options.solver.damping = DampingPolicy::hybrid_warm();
+            options.solver.damping = match self.initial.model {
+                CameraModel::Rational8 => DampingPolicy::marquardt_warm(),
+                _ => DampingPolicy::hybrid_warm(),
+            };
         }
         options
     }

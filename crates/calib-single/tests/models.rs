@@ -213,10 +213,10 @@ fn only_warm_starts_get_the_warm_start_damping() {
         let prepared = prepare_camera(&views, size, &options).unwrap();
         assert_eq!(prepared.warm_start, warm, "{model}");
         let default = options.solve_options();
-        let expected = if warm {
-            DampingPolicy::hybrid_warm()
-        } else {
-            DampingPolicy::hybrid()
+        let expected = match model {
+            CameraModel::Rational8 => DampingPolicy::marquardt_warm(),
+            CameraModel::ThinPrism12 => DampingPolicy::hybrid_warm(),
+            _ => DampingPolicy::hybrid(),
         };
         assert_eq!(
             prepared.solve_options(&default).solver.damping,

@@ -95,6 +95,21 @@ impl DampingPolicy {
         }
     }
 
+    /// Marquardt's policy from `lambda = 1e-8` (Gauss-Newton-like steps at once), for a warm
+    /// start whose new parameters the nested minimum leaves in a smooth valley: calibration uses
+    /// it for a rational8 lens model started from the `brown-conrady5` minimum, where it takes
+    /// 14 to 32 iterations instead of [`DampingPolicy::hybrid_warm`]'s 22 to 37 on the bundled
+    /// cameras, to the same minima (`docs/benchmarks-models.md`). Its pole retry is the hybrid
+    /// policy, a path of another kind.
+    pub const fn marquardt_warm() -> Self {
+        DampingPolicy::Marquardt {
+            initial: 1e-8,
+            min_diagonal: 1e-6,
+            max_diagonal: 1e32,
+            min_gain_ratio: 1e-3,
+        }
+    }
+
     /// The Ceres-style policy with Ceres' default constants.
     pub const fn marquardt() -> Self {
         DampingPolicy::Marquardt {
