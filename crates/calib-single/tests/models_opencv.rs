@@ -256,11 +256,12 @@ fn check_camera(set: &str, camera: &str) {
                 assert_converged(&case, &result, &theirs);
                 assert_same_minimum(&case, model, &result, &theirs);
                 // rational8 starts from the brown-conrady5 minimum with the warm-start damping
-                // (`DampingPolicy::hybrid_warm`): 22 to 37 iterations on these cameras. The
-                // hybrid policy from the same start needed 37 to 51.
+                // (`DampingPolicy::marquardt_warm`): 14 to 32 iterations on these cameras.
+                // `hybrid_warm` from the same start needed 22 to 37, the default hybrid policy
+                // 37 to 51; the speed bar against OpenCV (docs/benchmarks-models.md) needs these.
                 if model == CameraModel::Rational8 {
                     let iterations = result.solver.iterations.len();
-                    assert!(iterations <= 40, "{case}: {iterations} iterations");
+                    assert!(iterations <= 34, "{case}: {iterations} iterations");
                 }
             }
             Expect::LowerMinimum => {
