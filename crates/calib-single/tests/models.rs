@@ -133,6 +133,11 @@ fn sigmas_are_honest_for_every_model() {
 /// one cost, moved a problem or two across it.
 #[test]
 fn every_model_converges_over_the_population() {
+    // `CALIB_POPULATION_SEEDS=90` measures over more problems (docs/camera-model.md's table).
+    let seeds: u64 = std::env::var("CALIB_POPULATION_SEEDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(60);
     for model in [
         CameraModel::BrownConrady5,
         CameraModel::Rational8,
@@ -140,7 +145,10 @@ fn every_model_converges_over_the_population() {
     ] {
         let (mut at_minimum, mut undetermined) = (0, 0);
         let (mut higher, mut at_limit, mut refused) = (Vec::new(), Vec::new(), Vec::new());
-        for seed in 0..60 {
+        // Also printed, not asserted: the same comparison over the points each solve used, with
+        // solves that leave out more points than the truth start counted apart.
+        let (mut used_minimum, mut used_higher, mut good_rejected, mut iterations) = (0, 0, 0, 0);
+        for seed in 0..seeds {
             let mut c = population(seed);
             c.model = model;
             c.distortion = default_distortion(model);
@@ -169,7 +177,20 @@ fn every_model_converges_over_the_population() {
                     r.solver.termination, r.rms_all_points, reference.rms_all_points
                 )
             };
-            match calibrate(&set.observations, &options(model)) {
+            let result = calibrate(&set.observations, &options(model));
+            if let Ok(r) = &result {
+                iterations += r.solver.iterations.len();
+                if r.num_rejected > reference.num_rejected {
+                    good_rejected += 1;
+                } else if r.solver.termination.is_converged() {
+                    if r.rms > reference.rms + tolerance {
+                        used_higher += 1;
+                    } else {
+                        used_minimum += 1;
+                    }
+                }
+            }
+            match result {
                 Ok(r) if !r.solver.termination.is_converged() => at_limit.push(miss(&r)),
                 Ok(r) if r.rms_all_points > reference.rms_all_points + tolerance => {
                     higher.push(miss(&r))
@@ -180,8 +201,14 @@ fn every_model_converges_over_the_population() {
         }
         println!(
             "{model}: {at_minimum} at the minimum, {undetermined} not determined; \
-             higher minimum {higher:?}; iteration limit {at_limit:?}; refused {refused:?}"
+             higher minimum {higher:?}; iteration limit {at_limit:?}; refused {refused:?}; \
+             over the used points: {used_minimum} at the minimum, {used_higher} higher, \
+             {good_rejected} with more points rejected than the truth start; {iterations} iterations"
         );
+        if seeds != 60 {
+            // The bounds below are for 60 problems; other counts only measure.
+            continue;
+        }
         let (max_higher, max_misses) = if model == CameraModel::BrownConrady5 {
             (0, 0)
         } else {
