@@ -83,84 +83,80 @@ fn eliminate_block(
     d: usize,
 ) -> bool {
     let n = problem.reduced_dim;
-    {
-        let layout = &problem.eliminated[e];
-        let rows = layout.w_rows;
-        let base = problem.offsets[layout.block];
-        let (vo, wo, go) = (chunk.v_off[local], chunk.w_off[local], chunk.g_off[local]);
+    let layout = &problem.eliminated[e];
+    let rows = layout.w_rows;
+    let base = problem.offsets[layout.block];
+    let (vo, wo, go) = (chunk.v_off[local], chunk.w_off[local], chunk.g_off[local]);
 
-        let factor = &mut chunk.factor[vo..vo + d * d];
-        factor.copy_from_slice(&chunk.v[vo..vo + d * d]);
-        for i in 0..d {
-            factor[i + i * d] += damping[base + i];
+    let factor = &mut chunk.factor[vo..vo + d * d];
+    factor.copy_from_slice(&chunk.v[vo..vo + d * d]);
+    for i in 0..d {
+        factor[i + i * d] += damping[base + i];
+    }
+    if cholesky_in_place(factor, d).is_err() {
+        return false;
+    }
+    // Y^T = L^-1 W^T: every row of W through the forward substitution at once, column by
+    // column of Y (stored like W: rows x d, column-major), so that the inner loops run over
+    // contiguous rows; each entry sees the operations of `forward_substitute` in its order.
+    let w = &chunk.w[wo..wo + rows * d];
+    let y = &mut chunk.y[wo..wo + rows * d];
+    for i in 0..d {
+        let (done, rest) = y.split_at_mut(i * rows);
+        let yi = &mut rest[..rows];
+        yi.copy_from_slice(&w[i * rows..(i + 1) * rows]);
+        for k in 0..i {
+            let l = factor[i + k * d];
+            for (a, b) in yi.iter_mut().zip(&done[k * rows..(k + 1) * rows]) {
+                *a -= l * b;
+            }
         }
-        if cholesky_in_place(factor, d).is_err() {
-            return false;
+        let diagonal = factor[i + i * d];
+        for a in yi.iter_mut() {
+            *a /= diagonal;
         }
-        // Y^T = L^-1 W^T: every row of W through the forward substitution at once, column by
-        // column of Y (stored like W: rows x d, column-major), so that the inner loops run over
-        // contiguous rows; each entry sees the operations of `forward_substitute` in its order.
-        let w = &chunk.w[wo..wo + rows * d];
-        let y = &mut chunk.y[wo..wo + rows * d];
-        for i in 0..d {
-            let (done, rest) = y.split_at_mut(i * rows);
-            let yi = &mut rest[..rows];
-            yi.copy_from_slice(&w[i * rows..(i + 1) * rows]);
-            for k in 0..i {
-                let l = factor[i + k * d];
-                for (a, b) in yi.iter_mut().zip(&done[k * rows..(k + 1) * rows]) {
-                    *a -= l * b;
+    }
+    let y = &*y;
+    let z = &mut chunk.z[go..go + d];
+    z.copy_from_slice(&chunk.ge[go..go + d]);
+    forward_substitute(factor, d, z);
+
+    if dense_partial {
+        // Global reduced row of each local row of W_e.
+        for &(ra_j, off_j) in &layout.coupled {
+            let dj = problem.dims[problem.reduced_blocks[ra_j]];
+            let gj = problem.reduced_offsets[ra_j];
+            for cj in 0..dj {
+                let col = gj + cj;
+                let lj = off_j + cj;
+                // rhs += Y z
+                let mut acc = 0.0;
+                for k in 0..d {
+                    acc += y[lj + k * rows] * z[k];
                 }
-            }
-            let diagonal = factor[i + i * d];
-            for a in yi.iter_mut() {
-                *a /= diagonal;
-            }
-        }
-        let y = &*y;
-        let z = &mut chunk.z[go..go + d];
-        z.copy_from_slice(&chunk.ge[go..go + d]);
-        forward_substitute(factor, d, z);
-
-        if dense_partial {
-            // Global reduced row of each local row of W_e.
-            for &(ra_j, off_j) in &layout.coupled {
-                let dj = problem.dims[problem.reduced_blocks[ra_j]];
-                let gj = problem.reduced_offsets[ra_j];
-                for cj in 0..dj {
-                    let col = gj + cj;
-                    let lj = off_j + cj;
-                    // rhs += Y z
-                    let mut acc = 0.0;
-                    for k in 0..d {
-                        acc += y[lj + k * rows] * z[k];
+                chunk.rhs_partial[col] += acc;
+                // S -= Y Y^T, upper triangle only (`assemble_dense_schur` mirrors it); the
+                // sums over k run for a column of S at once, each in the order k = 0..d.
+                for &(ra_i, off_i) in &layout.coupled {
+                    let di = problem.dims[problem.reduced_blocks[ra_i]];
+                    let gi = problem.reduced_offsets[ra_i];
+                    let count = di.min((col + 1).saturating_sub(gi));
+                    if count == 0 {
+                        continue;
                     }
-                    chunk.rhs_partial[col] += acc;
-                    // S -= Y Y^T, upper triangle only (`assemble_dense_schur` mirrors it); the
-                    // sums over k run for a column of S at once, each in the order k = 0..d.
-                    for &(ra_i, off_i) in &layout.coupled {
-                        let di = problem.dims[problem.reduced_blocks[ra_i]];
-                        let gi = problem.reduced_offsets[ra_i];
-                        let count = di.min((col + 1).saturating_sub(gi));
-                        if count == 0 {
-                            continue;
-                        }
+                    // In tiles of at most 32 rows: a stack buffer, no allocation.
+                    for start in (0..count).step_by(32) {
+                        let len = (count - start).min(32);
                         let mut acc = [0.0f64; 32];
-                        let mut acc_heap;
-                        let acc: &mut [f64] = if count <= 32 {
-                            &mut acc[..count]
-                        } else {
-                            acc_heap = vec![0.0; count];
-                            &mut acc_heap
-                        };
+                        let acc = &mut acc[..len];
                         for k in 0..d {
                             let yj = y[lj + k * rows];
-                            let yk = &y[off_i + k * rows..][..count];
+                            let yk = &y[off_i + start + k * rows..][..len];
                             for (a, b) in acc.iter_mut().zip(yk) {
                                 *a += b * yj;
                             }
                         }
-                        let column = &mut chunk.s_partial[gi + col * n..][..count];
+                        let column = &mut chunk.s_partial[gi + start + col * n..][..len];
                         for (s, a) in column.iter_mut().zip(acc.iter()) {
                             *s -= a;
                         }
