@@ -366,7 +366,7 @@ def cmd_report(a):
         "move by 2x between runs, the fastest much less.")
     add("")
     notes = []
-    for section in ("real", "synth"):
+    for section in ("real", "synth-pinhole", "synth"):
         rows = [m for m in manifest if m[0] == section]
         if not rows:
             continue
@@ -376,6 +376,13 @@ def cmd_report(a):
             add("| model | camera | RMS ours | RMS OpenCV | ours − OpenCV | Δfx | Δfy | Δcx | Δcy "
                 "| max Δ/σ | ours: start, its ms | time ours ms | time OpenCV ms | OpenCV/ours | fastest: OpenCV/ours |")
             add("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        elif section == "synth-pinhole":
+            add("### Synthetic pinhole cameras (calib synth single --model MODEL), against the truth")
+            add("")
+            add("| model | true fx | RMS ours | RMS OpenCV | ours − OpenCV "
+                "| ours: max Δf, Δc vs truth | OpenCV: max Δf, Δc vs truth "
+                "| ours: start, its ms | time ours ms | time OpenCV ms | OpenCV/ours | fastest: OpenCV/ours |")
+            add("|---|---|---|---|---|---|---|---|---|---|---|---|")
         else:
             add("### Synthetic fisheye (calib synth single --model kannala-brandt4), against the truth")
             add("")
@@ -418,6 +425,17 @@ def cmd_report(a):
                     sig = fmt_small(max(z)) if z else "-"
                 add(f"| {model} | {name.split('.', 1)[1].replace('.', '/')} | {r_ours} | {r_cv} | {diff} | "
                     + " | ".join(d) + f" | {sig} | {start} | {fmt_ms(t_ours)} | {fmt_ms(t_cv)} | {ratio(t_ours, t_cv)} | {ratio(fast_ours, fast_cv)} |")
+            elif section == "synth-pinhole":
+                truth = read(obs)["truth"]
+
+                def err(sol):
+                    if not sol:
+                        return "-"
+                    return f"{max(abs(sol[k] - truth[k]) for k in ('fx', 'fy', 'cx', 'cy')):.3f}"
+
+                add(f"| {model} | {truth['fx']:g} | {r_ours} | {r_cv} | {diff} | {err(ours)} "
+                    f"| {err(cv if cv_ok else None)} | {start} | {fmt_ms(t_ours)} | {fmt_ms(t_cv)} "
+                    f"| {ratio(t_ours, t_cv)} | {ratio(fast_ours, fast_cv)} |")
             else:
                 d = read(obs)
                 truth = d["truth"]

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Lens models against OpenCV 5, in the same run and on one thread each: every model on the four
-# bundled cameras (data/sourishg{1,2}/{left,right}.json), and Kannala-Brandt on synthetic
+# bundled cameras (data/sourishg{1,2}/{left,right}.json), every pinhole model on synthetic data of
+# its own kind (known truth, a narrow and a wider lens), and Kannala-Brandt on synthetic
 # wide-angle / fisheye data with known truth. See docs/benchmarks-models.md.
 #
 # Usage: benches/models/run.sh [options]
@@ -10,8 +11,10 @@
 #   --repeats N         timed repeats per case for both tools (default 5; median reported)
 #   --fx LIST           true focal lengths (px, 640x480 image) of the synthetic fisheye sweep
 #                       (default 400,300,275,250,225,200,160,120: fields of view up to ~180 deg)
+#   --pinhole-fx LIST   true focal lengths (px, 640x480 image) of the synthetic pinhole cases, one
+#                       case per pinhole model and value (default 800,450: 44 and 71 deg across)
 #   --seed S            seed of the synthetic data (default 1)
-#   --no-synth          skip the synthetic sweep
+#   --no-synth          skip the synthetic cases (pinhole and fisheye)
 #   --calib PATH        use this calib binary (default: $CARGO_TARGET_DIR/release/calib, built)
 #   --no-build          do not run cargo build (the binary must exist)
 #   -h, --help          this text
@@ -27,6 +30,7 @@ die() { echo "run.sh: error: $*" >&2; exit 2; }
 REFERENCE=0
 REPEATS=5
 FXS="400,300,275,250,225,200,160,120"
+PINHOLE_FXS="800,450"
 SEED=1
 SYNTH=1
 CALIB=""
@@ -36,6 +40,7 @@ while [[ $# -gt 0 ]]; do
         --reference) REFERENCE=1 ;;
         --repeats) [[ $# -ge 2 ]] || die "--repeats needs a value"; REPEATS="$2"; shift ;;
         --fx) [[ $# -ge 2 ]] || die "--fx needs a value"; FXS="$2"; shift ;;
+        --pinhole-fx) [[ $# -ge 2 ]] || die "--pinhole-fx needs a value"; PINHOLE_FXS="$2"; shift ;;
         --seed) [[ $# -ge 2 ]] || die "--seed needs a value"; SEED="$2"; shift ;;
         --no-synth) SYNTH=0 ;;
         --calib) [[ $# -ge 2 ]] || die "--calib needs a value"; CALIB="$2"; shift ;;
@@ -48,6 +53,7 @@ done
 [[ "$REPEATS" =~ ^[1-9][0-9]*$ ]] || die "--repeats must be a positive integer"
 [[ "$SEED" =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer"
 [[ "$FXS" =~ ^[0-9]+(\.[0-9]+)?(,[0-9]+(\.[0-9]+)?)*$ ]] || die "--fx must be a comma-separated list of numbers"
+[[ "$PINHOLE_FXS" =~ ^[0-9]+(\.[0-9]+)?(,[0-9]+(\.[0-9]+)?)*$ ]] || die "--pinhole-fx must be a comma-separated list of numbers"
 if [[ -n "$CALIB" && "$CALIB" != /* ]]; then CALIB="$PWD/$CALIB"; fi
 
 COMMAND="benches/models/run.sh"
@@ -109,6 +115,22 @@ for model in "${MODELS[@]}"; do
     done
 done
 if [[ $SYNTH -eq 1 ]]; then
+    echo "== synthetic pinhole data (calib synth single --model MODEL, its default distortion, 640x480, 20 views, 0.2 px)"
+    IFS=, read -r -a pfx_list <<<"$PINHOLE_FXS"
+    for model in brown-conrady4 brown-conrady5 rational8 thin-prism12; do
+        for fx in "${pfx_list[@]}"; do
+            name="$model.fx$fx"
+            file=$OUT/$name.obs.json
+            gen=("$CALIB" synth single --model "$model" --image 640x480
+                 --intrinsics "$fx,$fx,319.5,239.5" --views 20 --noise 0.2 --seed "$SEED" -o "$file")
+            echo "  ${gen[*]#"$ROOT/"}"
+            if "${gen[@]}" >"$OUT/$name.synth.log" 2>&1; then
+                printf 'synth-pinhole\t%s\t%s\t%s\n' "$name" "$file" "$model" >>"$MANIFEST"
+            else
+                echo "  (generator failed for $name: $(tail -n 1 "$OUT/$name.synth.log"))" >&2
+            fi
+        done
+    done
     echo "== synthetic fisheye data (calib synth single --model kannala-brandt4, 640x480, 20 views, 0.2 px)"
     IFS=, read -r -a fx_list <<<"$FXS"
     for fx in "${fx_list[@]}"; do
