@@ -99,7 +99,7 @@ impl CalibrationOptions {
             compute_uncertainty: self.compute_uncertainty,
             outliers: self.outliers,
             camera_warnings: true,
-            recheck_disputed_rejections: false,
+            recheck_without_suspects: false,
         }
     }
 

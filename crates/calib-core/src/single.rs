@@ -496,12 +496,12 @@ impl PreparedCamera {
     /// first: Marquardt's at once ends it in a higher minimum on sourishg1/left). Measured on the
     /// bundled cameras and the 90-problem population of `tests/models.rs`
     /// (`docs/benchmarks-models.md`). A damping chosen by the user is kept. After a warm start
-    /// the outlier rejection also rechecks disputed rejections
-    /// ([`crate::SolveOptions::recheck_disputed_rejections`]): the start is the simpler model's
-    /// fit of the same points.
+    /// the outlier rejection also runs with every point in the first solve when the run with
+    /// the suspects left out fails or rejects points
+    /// ([`crate::SolveOptions::recheck_without_suspects`]).
     pub fn solve_options(&self, options: &crate::SolveOptions) -> crate::SolveOptions {
         let mut options = options.clone();
-        options.recheck_disputed_rejections |= self.warm_start;
+        options.recheck_without_suspects |= self.warm_start;
         if self.warm_start && options.solver.damping == DampingPolicy::hybrid() {
             options.solver.damping = match self.initial.model {
                 CameraModel::Rational8 => DampingPolicy::marquardt_warm(),

@@ -42,17 +42,18 @@ pub struct SolveOptions {
     /// start or a score (the focal searches, a many-term model's simpler stage) skip it: the
     /// validity walk alone costs about as much as a small solve.
     pub camera_warnings: bool,
-    /// With outlier rejection, when the start values are themselves a fit of the same points
-    /// (a many-term lens model started from a simpler model's solution): the points rejected at
-    /// the end that the start fits within the final threshold are *disputed*, a sign that the
-    /// model ended in a minimum that extrapolates badly where they lie (seen with rational
-    /// models whose first solve leaves out edge corners the robust homography suspected). The
-    /// rejection then runs once more with those points in the first solve, and the solution
-    /// with the lower truncated cost (the sum over every point of `min(|e|^2, T^2)`, `T` the
-    /// first solution's threshold of the point's camera) is kept. Costs nothing when no point
-    /// is disputed. Default `false`; [`crate::single::PreparedCamera::solve_options`] sets it
-    /// after a warm start.
-    pub recheck_disputed_rejections: bool,
+    /// With outlier rejection and suspects (points the robust homography left out of the first
+    /// solve), when the start values are themselves a fit of the same points (a many-term lens
+    /// model started from a simpler model's solution): if that rejection fails or ends with
+    /// rejected points, it runs once more with every point in the first solve. A rational
+    /// model whose first solve leaves out suspected edge corners extrapolates freely there: it
+    /// may reject good corners for good, or stop against a pole of its denominator. The second
+    /// run replaces a failure; of two solutions, the one with the lower truncated cost (the sum
+    /// over every point of `min(|e|^2, T^2)`, `T` the first solution's threshold of the
+    /// point's camera) is kept. Costs nothing when the first run succeeds without rejecting a
+    /// point. Default `false`; [`crate::single::PreparedCamera::solve_options`] sets it after a
+    /// warm start.
+    pub recheck_without_suspects: bool,
 }
 
 impl Default for SolveOptions {
@@ -65,7 +66,7 @@ impl Default for SolveOptions {
             compute_uncertainty: true,
             outliers: Some(OutlierRejection::default()),
             camera_warnings: true,
-            recheck_disputed_rejections: false,
+            recheck_without_suspects: false,
         }
     }
 }
@@ -215,17 +216,23 @@ pub fn solve(
             None => Vec::new(),
         })
         .collect();
-    let mut solution = reject_and_solve(problem, options, &rejection, suspects.clone(), None)?;
-    if options.recheck_disputed_rejections
-        && let Some(disputed) = disputed_rejections(problem, &solution, &rejection)?
-    {
-        let start: Vec<Vec<usize>> = suspects
-            .iter()
-            .zip(&disputed)
-            .map(|(s, d)| s.iter().copied().filter(|i| !d.contains(i)).collect())
-            .collect();
-        // A failed recheck (a view mostly rejected, a solver failure) keeps the first solution.
-        if let Ok(second) = reject_and_solve(problem, options, &rejection, start, Some(&disputed)) {
+    let recheck = options.recheck_without_suspects && suspects.iter().any(|s| !s.is_empty());
+    let every_point = || {
+        reject_and_solve(
+            problem,
+            options,
+            &rejection,
+            vec![Vec::new(); suspects.len()],
+        )
+    };
+    let mut solution = match reject_and_solve(problem, options, &rejection, suspects.clone()) {
+        Ok(solution) => solution,
+        Err(error) if recheck => every_point().map_err(|_| error)?,
+        Err(error) => return Err(error),
+    };
+    if recheck && solution.num_rejected() > 0 {
+        // A failed second run keeps the first solution.
+        if let Ok(second) = every_point() {
             let thresholds = outliers::thresholds(&solution, &rejection);
             let total_iterations = solution.total_iterations + second.total_iterations;
             if truncated_cost(problem, &second, &thresholds)
@@ -247,13 +254,11 @@ pub fn solve(
 
 /// The rejection loop: solves with `rejected` left out, marks the outliers of the solution and
 /// solves again from it until the marked set no longer changes (at most `max_rounds` re-solves).
-/// Points in `protected` are not marked after the first solve (they take part in the second).
 fn reject_and_solve(
     problem: &JointProblem,
     options: &SolveOptions,
     rejection: &OutlierRejection,
     mut rejected: Vec<Vec<usize>>,
-    protected: Option<&[Vec<usize>]>,
 ) -> Result<JointSolution, CalibrationError> {
     let floor = Some(rejection.min_threshold_px);
     let mut warm: Option<JointProblem> = None;
@@ -271,12 +276,7 @@ fn reject_and_solve(
         };
         total_iterations += solution.report.iterations.len();
         let first_cost = *initial_cost.get_or_insert(solution.report.initial_cost);
-        let mut marked = outliers::mark(problem, &solution, rejection);
-        if let (0, Some(protected)) = (rounds, protected) {
-            for (m, p) in marked.iter_mut().zip(protected) {
-                m.retain(|i| !p.contains(i));
-            }
-        }
+        let marked = outliers::mark(problem, &solution, rejection);
         if marked == rejected || rounds == rejection.max_rounds {
             solution.rejected = rejected;
             solution.outlier_rounds = rounds;
@@ -289,33 +289,6 @@ fn reject_and_solve(
         rounds += 1;
         warm = Some(problem.with_solution(&solution));
     }
-}
-
-/// The points of `solution.rejected` that the problem's start values fit within the solution's
-/// threshold of their camera, per observation (sorted), or `None` if there are none.
-fn disputed_rejections(
-    problem: &JointProblem,
-    solution: &JointSolution,
-    rejection: &OutlierRejection,
-) -> Result<Option<Vec<Vec<usize>>>, CalibrationError> {
-    if solution.num_rejected() == 0 {
-        return Ok(None);
-    }
-    let thresholds = outliers::thresholds(solution, rejection);
-    let at_start = reprojection_errors(problem)?;
-    let disputed: Vec<Vec<usize>> = solution
-        .rejected
-        .iter()
-        .enumerate()
-        .map(|(o, r)| {
-            let t = thresholds[problem.observations[o].camera];
-            r.iter()
-                .copied()
-                .filter(|&i| at_start[o][i].norm() <= t)
-                .collect()
-        })
-        .collect();
-    Ok(disputed.iter().any(|d| !d.is_empty()).then_some(disputed))
 }
 
 /// `sum over every point of min(|e|^2, T^2)`, `T` = `thresholds` of the point's camera: a
