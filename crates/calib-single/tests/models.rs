@@ -314,7 +314,8 @@ fn a_run_that_ends_at_a_pole_is_retried_with_every_point_in() {
 }
 
 /// A rational model starts from the `brown-conrady5` minimum (a warm start) and is refined with
-/// the warm-start damping; a damping the user chose is kept, and a model started from the closed
+/// the warm-start damping (thin-prism12 with the damping search); a damping the user chose is
+/// kept, and a model started from the closed
 /// form keeps the default.
 #[test]
 fn only_warm_starts_get_the_warm_start_damping() {
@@ -340,6 +341,13 @@ fn only_warm_starts_get_the_warm_start_damping() {
         assert_eq!(
             prepared.solve_options(&default).solver.damping,
             expected,
+            "{model}"
+        );
+        // The damping search only for thin-prism12 (docs/lm-solver.md, "Damping search").
+        let search = usize::from(model == CameraModel::ThinPrism12) * 3;
+        assert_eq!(
+            prepared.solve_options(&default).solver.damping_search,
+            search,
             "{model}"
         );
         let mut chosen = default.clone();

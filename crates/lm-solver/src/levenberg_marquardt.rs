@@ -182,6 +182,126 @@ pub struct SolverOptions {
     /// bit when a fused cost function ([`CostFunction::evaluate_gram`]) sums its cost group by
     /// group in residual order, as the cost-only pass does.
     pub eager_linearization: bool,
+    /// Damping search under Marquardt's policy (default 0: off): after a step accepted with a
+    /// gain ratio within 0.1 of one, when the previous accepted step's was too, up to this many
+    /// steps with `lambda / 8`, `lambda / 64`, ... from the same linearization, each evaluated
+    /// for its cost alone; the point with the lowest cost (gain ratio at least 0.5) is taken and
+    /// the damping continues from its `lambda`. Nielsen's rule lowers `lambda` by at most 3x per
+    /// step, so a long run of well-predicted steps in a valley that the damping still holds
+    /// back costs one linearization per 3x; a cost-only trial is about a tenth of one. Each
+    /// trial counts as a step attempt (recorded after the one it extends).
+    pub damping_search: usize,
+}
+
+/// The solver's buffers a damping search works on.
+struct SearchParts<'a> {
+    problem: &'a Problem,
+    options: &'a SolverOptions,
+    linear: &'a mut LinearSolver,
+    ne: &'a mut NormalEquations,
+    pool: Option<&'a rayon::ThreadPool>,
+    step: &'a mut [f64],
+    trial: &'a mut [f64],
+    best: &'a mut [f64],
+    damping: &'a mut [f64],
+    diagonal: &'a [f64],
+}
+
+/// The damping search after an accepted trial at `lambda` (`SolverOptions::damping_search`):
+/// from the same linearization, steps with `lambda / 8`, `lambda / 64`, ... (at most `room`
+/// of them), each evaluated for its cost alone, while each lowers the cost below the best
+/// so far with a gain ratio of at least 0.5, and stops after one whose gain ratio is not
+/// within 0.1 of one. Leaves the best point in `trial` and returns its `lambda` and
+/// gain ratio; pushes one record per trial (accepted = it became the best).
+fn search_damping<C: CostFunction>(
+    parts: SearchParts<'_>,
+    cost_fn: &C,
+    x: &[f64],
+    (cost, trial_cost, gain, lambda): (f64, f64, f64, f64),
+    gradient_max_norm: f64,
+    room: usize,
+    records: &mut Vec<IterationRecord>,
+) -> (f64, f64) {
+    let SearchParts {
+        problem,
+        options,
+        linear,
+        ne,
+        pool,
+        step,
+        trial,
+        best,
+        damping,
+        diagonal,
+    } = parts;
+    best.copy_from_slice(trial);
+    let (mut best_cost, mut best_lambda, mut best_gain) = (trial_cost, lambda, gain);
+    let mut trial_lambda = lambda;
+    for _ in 0..room {
+        trial_lambda = (trial_lambda / DAMPING_SEARCH_FACTOR).max(options.min_lambda);
+        for (i, d) in damping.iter_mut().enumerate() {
+            if !problem.fixed_mask[i] {
+                *d = trial_lambda * diagonal[i];
+            }
+        }
+        let ts = Instant::now();
+        let solved = linear.solve(problem, ne, damping, step, pool);
+        let mut record = IterationRecord {
+            iteration: 0,
+            cost: best_cost,
+            trial_cost: f64::INFINITY,
+            gradient_max_norm,
+            step_norm: 0.0,
+            gain_ratio: f64::NAN,
+            lambda: trial_lambda,
+            accepted: false,
+            solve_succeeded: solved.is_ok(),
+            evaluate_time: Duration::ZERO,
+            solve_time: ts.elapsed(),
+        };
+        if solved.is_err() {
+            records.push(record);
+            break;
+        }
+        record.step_norm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let predicted = 0.5
+            * step
+                .iter()
+                .zip(&ne.g)
+                .zip(damping.iter())
+                .map(|((s, g), d)| -g * s + d * s * s)
+                .sum::<f64>();
+        problem.plus(x, step, trial);
+        let te = Instant::now();
+        let trial_cost = ne
+            .evaluate(problem, cost_fn, trial, false, pool)
+            .unwrap_or(f64::INFINITY);
+        record.evaluate_time = te.elapsed();
+        record.trial_cost = trial_cost;
+        let gain = (cost - trial_cost) / predicted;
+        record.gain_ratio = gain;
+        let better = trial_cost.is_finite() && trial_cost < best_cost && gain >= 0.5;
+        record.accepted = better;
+        if better {
+            (best_cost, best_lambda, best_gain) = (trial_cost, trial_lambda, gain);
+            record.cost = best_cost;
+            best.copy_from_slice(trial);
+        }
+        records.push(record);
+        if !better || !model_reliable(gain) {
+            break;
+        }
+    }
+    trial.copy_from_slice(best);
+    (best_lambda, best_gain)
+}
+
+/// Each trial of the damping search divides `lambda` by this.
+const DAMPING_SEARCH_FACTOR: f64 = 8.0;
+
+/// A gain ratio within 0.1 of one: the linear model predicted the step's decrease well.
+fn model_reliable(gain: f64) -> bool {
+    (0.9..=1.1).contains(&gain)
 }
 
 impl Default for SolverOptions {
@@ -198,6 +318,7 @@ impl Default for SolverOptions {
             num_threads: 0,
             chunk_work: 150_000,
             eager_linearization: true,
+            damping_search: 0,
         }
     }
 }
@@ -289,6 +410,7 @@ pub struct Solver {
     pub(crate) pool: Option<rayon::ThreadPool>,
     step: Vec<f64>,
     trial: Vec<f64>,
+    best: Vec<f64>,
     damping: Vec<f64>,
     diagonal: Vec<f64>,
 }
@@ -341,6 +463,7 @@ impl Solver {
             pool,
             step: vec![0.0; n],
             trial: vec![0.0; n_ambient],
+            best: vec![0.0; n_ambient],
             damping: vec![0.0; n],
             diagonal: vec![0.0; n],
         })
@@ -426,6 +549,9 @@ impl Solver {
         // `lambda` of the most recent rejected trial while it predicts rejections (see
         // `SolverOptions::eager_linearization`).
         let mut rejected_lambda: Option<f64> = None;
+        // Trials of the damping search (`SolverOptions::damping_search`), recorded after the
+        // step attempt they extend.
+        let mut search_records: Vec<IterationRecord> = Vec::new();
 
         let termination = loop {
             let gradient_max_norm = self.ne.gradient_max_norm();
@@ -536,7 +662,15 @@ impl Solver {
                         && iterations
                             .last()
                             .is_some_and(|r: &IterationRecord| !r.accepted));
-                let eager = self.trial_ne.as_mut().filter(|_| !rejection_predicted);
+                // A search may follow this trial: then the trial gets its cost alone, and the
+                // point finally taken is linearized.
+                let search_possible = options.damping_search > 0
+                    && matches!(policy, DampingPolicy::Marquardt { .. })
+                    && last_gain.is_some_and(model_reliable);
+                let eager = self
+                    .trial_ne
+                    .as_mut()
+                    .filter(|_| !rejection_predicted && !search_possible);
                 let linearized = eager.is_some();
                 let trial_cost = match eager {
                     Some(trial_ne) => {
@@ -561,6 +695,46 @@ impl Solver {
                         DampingPolicy::Marquardt { min_gain_ratio, .. } => gain > min_gain_ratio,
                         _ => trial_cost < cost,
                     };
+                let mut gain = gain;
+                if accepted && search_possible && model_reliable(gain) {
+                    // At most as many trials as the iteration limit leaves.
+                    let room = options
+                        .max_iterations
+                        .saturating_sub(iterations.len() + 1)
+                        .min(options.damping_search);
+                    let parts = SearchParts {
+                        problem,
+                        options,
+                        linear: &mut self.linear,
+                        ne: &mut self.ne,
+                        pool,
+                        step: &mut self.step,
+                        trial: &mut self.trial,
+                        best: &mut self.best,
+                        damping: &mut self.damping,
+                        diagonal: &self.diagonal,
+                    };
+                    let (searched_lambda, searched_gain) = search_damping(
+                        parts,
+                        cost_fn,
+                        x,
+                        (cost, trial_cost, gain, lambda),
+                        gradient_max_norm,
+                        room,
+                        &mut search_records,
+                    );
+                    let searched = search_records.iter().filter(|r| r.accepted).count();
+                    residual_evaluations += search_records.len();
+                    linear_solves += search_records.len();
+                    for r in &search_records {
+                        evaluate_time += r.evaluate_time;
+                        solve_time += r.solve_time;
+                    }
+                    if searched > 0 {
+                        lambda = searched_lambda;
+                        gain = searched_gain;
+                    }
+                }
                 if accepted {
                     x.copy_from_slice(&self.trial);
                     let previous = cost;
@@ -624,7 +798,14 @@ impl Solver {
             record.accepted = accepted;
             record.cost = cost;
             iterations.push(record.clone());
-            let action = observer.observe(&record);
+            let mut action = observer.observe(&record);
+            for mut trial in search_records.drain(..) {
+                trial.iteration = iterations.len() + 1;
+                if observer.observe(&trial) == ObserverAction::Stop {
+                    action = ObserverAction::Stop;
+                }
+                iterations.push(trial);
+            }
             if let Some(termination) = converged {
                 break termination;
             }

@@ -1082,3 +1082,61 @@ fn predicted_rejections_skip_the_linearization() {
     }
     assert_eq!(predicted_somewhere, [true; 3], "no prediction exercised");
 }
+
+/// The damping search (`SolverOptions::damping_search`) reaches the same minimum as Marquardt's
+/// policy alone, with fewer linearizations when the damping starts far too high (each
+/// well-predicted step then lowers `lambda` by only 3x), and records each of its trials as a
+/// step attempt evaluated for its cost alone.
+#[test]
+fn damping_search_reaches_the_same_minimum_with_fewer_linearizations() {
+    let ba = BearingAdjustment::generate(8, 40, 1e-3, 5);
+    let mut fewer = 0;
+    for seed in 0..4 {
+        let run = |search: usize| {
+            let built = ba.build(true);
+            let mut o = SolverOptions::default();
+            o.damping = DampingPolicy::Marquardt {
+                initial: 1e2,
+                min_diagonal: 1e-6,
+                max_diagonal: 1e32,
+                min_gain_ratio: 1e-3,
+            };
+            o.damping_search = search;
+            let mut solver = Solver::new(built.problem, o).unwrap();
+            let mut x = ba.perturbed(0.3, seed);
+            let report = solver.solve(&ba, &mut x).unwrap();
+            (x, report)
+        };
+        let (x_plain, plain) = run(0);
+        let (x_search, search) = run(3);
+        assert!(plain.termination.is_converged() && search.termination.is_converged());
+        let relative = (search.final_cost - plain.final_cost).abs() / plain.final_cost;
+        assert!(relative < 1e-10, "seed {seed}: cost {relative:e} apart");
+        assert!(
+            max_abs_difference(&x_plain, &x_search) < 1e-6,
+            "seed {seed}"
+        );
+        if search.jacobian_evaluations < plain.jacobian_evaluations {
+            fewer += 1;
+        }
+        assert!(
+            search.jacobian_evaluations <= plain.jacobian_evaluations,
+            "seed {seed}: {} vs {}",
+            search.jacobian_evaluations,
+            plain.jacobian_evaluations
+        );
+        // Every step attempt is recorded: the trials evaluated for their cost alone (rejection
+        // predictions and search trials) plus those linearized at once.
+        let trials = search
+            .iterations
+            .iter()
+            .filter(|r| r.trial_cost.is_finite())
+            .count();
+        assert!(search.residual_evaluations + search.jacobian_evaluations > trials);
+        assert_eq!(search.linear_solves, search.iterations.len());
+    }
+    assert!(
+        fewer >= 3,
+        "the search saved linearizations on {fewer} of 4"
+    );
+}
