@@ -546,12 +546,18 @@ mod tests {
             k in prop::array::uniform12(-0.3f64..0.3), x in -1.0f64..1.0, y in -1.0f64..1.0
         ) {
             let n = Vector2::new(x, y);
-            // Tangential and prism terms are small in real lenses; the rational denominator's
-            // coefficients are kept so that it stays near one (|k4..k6| < 0.3, r^2 < 2).
+            // Tangential and prism terms are small in real lenses. The rational denominator
+            // 1 + k4 r^2 + k5 r^4 + k6 r^6 is kept at 0.4 or more over the sampled r^2 < 2
+            // (|k4| < 0.1, |k5| < 0.05, |k6| < 0.025): near its zeros the derivatives grow
+            // without bound (a drawn k4..k6 of -0.13, -0.29, -0.10 at r^2 = 1.38 made them 1e7
+            // and the central differences 6e-5 off), and the model is invalid there anyway.
             let mut c = k;
             for i in [2, 3, 8, 9, 10, 11] {
                 c[i] *= 0.05;
             }
+            c[5] /= 3.0;
+            c[6] /= 6.0;
+            c[7] /= 12.0;
             check_model(BrownConrady5::new([c[0], c[1], c[2], c[3], c[4]]), n)?;
             check_model(Rational8::new([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]), n)?;
             check_model(ThinPrism12::new(c), n)?;
