@@ -124,6 +124,9 @@ pub struct JointSolution {
     /// `(observation, point, |e|)` of the user-weighted points whose error exceeds the outlier
     /// floor: the only points rejection can pick (empty without outlier rejection).
     pub(crate) outlier_candidates: Vec<(usize, usize, f64)>,
+    /// `sum |e|^2` over the user-weighted points, rejected or not (with outlier rejection; the
+    /// points rejection can pick from, and the base of [`truncated_cost`]).
+    pub(crate) candidate_sum_sq: f64,
 }
 
 /// Reprojection error statistics of one observation at a solution, pixels.
@@ -291,11 +294,11 @@ fn reject_and_solve(
     }
 }
 
-/// `sum over every point of min(|e|^2, T^2)`, `T` = `thresholds` of the point's camera: a
-/// solution's cost with each point's influence capped at the rejection threshold, comparable
-/// between solutions that reject different points.
+/// `sum over the user-weighted points of min(|e|^2, T^2)`, `T` = `thresholds` of the point's
+/// camera: a solution's cost with each point's influence capped at the rejection threshold,
+/// comparable between solutions that reject different points.
 fn truncated_cost(problem: &JointProblem, solution: &JointSolution, thresholds: &[f64]) -> f64 {
-    let all: f64 = solution.errors.iter().map(|e| e.all_sum_sq).sum();
+    let all = solution.candidate_sum_sq;
     let excess: f64 = solution
         .outlier_candidates
         .iter()
@@ -929,6 +932,7 @@ fn solve_with<R: RotationParameterization>(
     let mut counters = vec![0usize; n_cam];
     let mut noise_sample = vec![Vec::new(); if floor.is_some() { n_cam } else { 0 }];
     let mut outlier_candidates = Vec::new();
+    let mut candidate_sum_sq = 0.0;
     let floor_sq = floor.map(|f| f * f);
     let mut errors = Vec::with_capacity(problem.observations.len());
     let mut buffer = Vec::new();
@@ -962,6 +966,7 @@ fn solve_with<R: RotationParameterization>(
                     noise_sample[c].push(sq.sqrt());
                 }
                 counters[c] += 1;
+                candidate_sum_sq += sq;
                 // Not `sq > floor_sq`: a NaN error is a candidate too.
                 let below = sq <= floor_sq;
                 if !below {
@@ -992,6 +997,7 @@ fn solve_with<R: RotationParameterization>(
         initial_cost,
         warnings: Vec::new(),
         noise_sample,
+        candidate_sum_sq,
         outlier_candidates,
         undetermined,
     };
