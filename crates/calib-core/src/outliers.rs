@@ -10,7 +10,8 @@
 //! is pixels off). Every
 //! point is re-tested each round, so a point rejected early (or suspected by the robust
 //! homography) comes back when the calibrated model fits it. A view that loses more than half of
-//! its points is not a view with a few bad corners but a wrong one, and is reported.
+//! its points in the final rejected set is not a view with a few bad corners but a wrong one, and
+//! is reported.
 //!
 //! Cost: one extra solve, warm-started from the previous solution (a few iterations), per round
 //! in which the rejected set changes; none on clean data.
