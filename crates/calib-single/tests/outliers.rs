@@ -49,6 +49,25 @@ fn inject_stray_corners(
     injected
 }
 
+/// Every view of `result` rejected exactly its `injected` points (none for views not listed).
+fn assert_rejected_exactly(
+    result: &calib_single::Calibration,
+    injected: &[(usize, Vec<usize>)],
+    seed: u64,
+) {
+    for view in &result.views {
+        let expected = injected
+            .iter()
+            .find(|(v, _)| *v == view.index)
+            .map_or(&[][..], |(_, b)| b.as_slice());
+        assert_eq!(
+            view.rejected_points, expected,
+            "seed {seed}, view {}",
+            view.index
+        );
+    }
+}
+
 /// The same mistakes under a wide-angle lens calibrated with `rational8`, whose outlier rejection
 /// runs a second time with every point in the first solve when the first run rejects points
 /// (`SolveOptions::recheck_without_suspects`): exactly the spoiled corners are rejected, and the
@@ -75,17 +94,7 @@ fn stray_corners_are_rejected_under_a_rational_model() {
         let mut obs = set.observations.clone();
         let injected = inject_stray_corners(&mut obs, seed);
         let result = calibrate(&obs, &options).unwrap();
-        for view in &result.views {
-            let expected = injected
-                .iter()
-                .find(|(v, _)| *v == view.index)
-                .map_or(&[][..], |(_, b)| b.as_slice());
-            assert_eq!(
-                view.rejected_points, expected,
-                "seed {seed}, view {}",
-                view.index
-            );
-        }
+        assert_rejected_exactly(&result, &injected, seed);
         assert!(result.rms < 1.2 * clean.rms, "seed {seed}: {}", result.rms);
         let truth = set.camera.intrinsics;
         let e = result.camera.intrinsics;
@@ -130,17 +139,7 @@ fn stray_corners_are_rejected_and_the_estimate_is_unharmed() {
         let mut obs = set.observations.clone();
         let injected = inject_stray_corners(&mut obs, seed);
         let result = calibrate(&obs, &CalibrationOptions::default()).unwrap();
-        for view in &result.views {
-            let expected = injected
-                .iter()
-                .find(|(v, _)| *v == view.index)
-                .map_or(&[][..], |(_, b)| b.as_slice());
-            assert_eq!(
-                view.rejected_points, expected,
-                "seed {seed}, view {}",
-                view.index
-            );
-        }
+        assert_rejected_exactly(&result, &injected, seed);
         let total: usize = injected.iter().map(|(_, b)| b.len()).sum();
         assert_eq!(result.num_rejected, total);
         assert!(result.rms < 1.2 * clean.rms, "seed {seed}: {}", result.rms);
