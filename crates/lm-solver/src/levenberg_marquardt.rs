@@ -191,6 +191,15 @@ pub struct SolverOptions {
     /// back costs one linearization per 3x; a cost-only trial is about a tenth of one. Each
     /// trial counts as a step attempt (recorded after the one it extends).
     pub damping_search: usize,
+    /// Stagnation rule (default 0: off): converged (`FunctionTolerance`) when the last
+    /// `stagnation_window` accepted steps together lowered the cost by at most
+    /// `stagnation_tolerance` times the cost before them. Ends the runaways of a model whose
+    /// cost keeps falling along a direction the data does not determine (a rational lens model's
+    /// coefficients growing without bound, each step lowering the cost by 1e-8 relative for
+    /// hundreds of steps), where `function_tolerance`, judged step by step, never triggers.
+    pub stagnation_window: usize,
+    /// See `stagnation_window` (relative; default 1e-5).
+    pub stagnation_tolerance: f64,
 }
 
 /// The solver's buffers a damping search works on.
@@ -319,6 +328,8 @@ impl Default for SolverOptions {
             chunk_work: 150_000,
             eager_linearization: true,
             damping_search: 0,
+            stagnation_window: 0,
+            stagnation_tolerance: 1e-5,
         }
     }
 }
@@ -552,6 +563,7 @@ impl Solver {
         // Trials of the damping search (`SolverOptions::damping_search`), recorded after the
         // step attempt they extend.
         let mut search_records: Vec<IterationRecord> = Vec::new();
+        let mut accepted_costs: Vec<f64> = Vec::new();
 
         let termination = loop {
             let gradient_max_norm = self.ne.gradient_max_norm();
@@ -773,7 +785,15 @@ impl Solver {
                         }
                     }
                     lambda = lambda.max(options.min_lambda);
-                    if previous - cost <= options.function_tolerance * previous {
+                    let window = options.stagnation_window;
+                    if window > 0 {
+                        accepted_costs.push(cost);
+                    }
+                    let stagnant = window > 0 && accepted_costs.len() > window && {
+                        let before = accepted_costs[accepted_costs.len() - 1 - window];
+                        before - cost <= options.stagnation_tolerance * before
+                    };
+                    if stagnant || previous - cost <= options.function_tolerance * previous {
                         converged = Some(Termination::FunctionTolerance);
                     }
                 } else if predicted.is_finite() && predicted <= options.function_tolerance * cost {

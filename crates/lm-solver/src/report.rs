@@ -10,7 +10,8 @@ pub enum Termination {
     /// Converged: the largest gradient entry fell below `gradient_tolerance`.
     GradientTolerance,
     /// Converged: an accepted step changed the cost by less than `function_tolerance` times the
-    /// cost.
+    /// cost (or, with `SolverOptions::stagnation_window`, the last accepted steps together by
+    /// less than `stagnation_tolerance`).
     FunctionTolerance,
     /// Converged: the step was shorter than `parameter_tolerance * (|x| + parameter_tolerance)`.
     ParameterTolerance,
