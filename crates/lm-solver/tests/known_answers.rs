@@ -1140,3 +1140,56 @@ fn damping_search_reaches_the_same_minimum_with_fewer_linearizations() {
         "the search saved linearizations on {fewer} of 4"
     );
 }
+
+/// `r = x`: the cost `x^2 / 2` has its minimum at 0.
+struct Identity;
+
+impl CostFunction for Identity {
+    fn evaluate(
+        &self,
+        _block: ResidualBlockId,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut JacobianBlocks<'_>>,
+    ) -> Result<(), EvaluationError> {
+        residuals[0] = params[0][0];
+        if let Some(j) = jacobians
+            && let Some(jac) = j.block_mut(0)
+        {
+            jac[0] = 1.0;
+        }
+        Ok(())
+    }
+}
+
+/// A crawl: with the additive damping held at `lambda = 1e6` (factor 1), every step shrinks `x`
+/// by the factor `1e6 / (1 + 1e6)`, lowering the cost by 2e-6 relative: far above the per-step
+/// function tolerance, so the solve runs to its iteration limit. The stagnation rule with a
+/// window of 10 steps and a tolerance of 1e-4 (10 steps lower it by 2e-5) ends it converged
+/// after exactly 11 steps: the first at which 10 earlier accepted steps exist.
+#[test]
+fn the_stagnation_rule_ends_a_crawl() {
+    let run = |window: usize| {
+        let mut builder = ProblemBuilder::new();
+        let p = builder.add_parameter_block(1);
+        builder.add_residual_block(1, &[p]);
+        let mut o = SolverOptions::default();
+        o.damping = DampingPolicy::Additive {
+            initial: 1e6,
+            factor: 1.0,
+        };
+        o.stagnation_window = window;
+        o.stagnation_tolerance = 1e-4;
+        let mut solver = Solver::new(builder.build().unwrap(), o).unwrap();
+        let mut x = [1.0];
+        let report = solver.solve(&Identity, &mut x).unwrap();
+        (x[0], report)
+    };
+    let (_, crawl) = run(0);
+    assert_eq!(crawl.termination, Termination::MaxIterations);
+    let (x, stopped) = run(10);
+    assert_eq!(stopped.termination, Termination::FunctionTolerance);
+    assert_eq!(stopped.iterations.len(), 11);
+    let expected = (1e6f64 / (1.0 + 1e6)).powi(11);
+    assert!((x - expected).abs() < 1e-12, "{x} vs {expected}");
+}
