@@ -683,6 +683,19 @@ fn termination_reasons_are_reported() {
     }
 }
 
+/// The step attempts of `report` whose trial point was evaluated, after checking that each was
+/// evaluated once, with or without its Jacobian (an accepted trial evaluated without one is
+/// linearized afterwards, and the start is linearized too).
+fn evaluated_trials(report: &SolverReport) -> usize {
+    let trials = report
+        .iterations
+        .iter()
+        .filter(|r| r.trial_cost.is_finite())
+        .count();
+    assert!(report.jacobian_evaluations + report.residual_evaluations > trials);
+    trials
+}
+
 /// Two solves took the same steps: as many iterations, the same final cost and parameters, to
 /// the bit.
 fn assert_same_steps(a: (&[f64], &SolverReport), b: (&[f64], &SolverReport), what: &str) {
@@ -1063,14 +1076,7 @@ fn predicted_rejections_skip_the_linearization() {
                 (&x_lazy, &lazy),
                 &format!("{damping:?}"),
             );
-            let trials = eager
-                .iterations
-                .iter()
-                .filter(|r| r.trial_cost.is_finite())
-                .count();
-            // Every trial is evaluated once, with or without its Jacobian; an accepted trial
-            // evaluated without one is linearized afterwards.
-            assert!(eager.jacobian_evaluations + eager.residual_evaluations > trials);
+            let trials = evaluated_trials(&eager);
             assert!(eager.jacobian_evaluations <= 1 + trials);
             let rejected = trials - eager.accepted_steps;
             if eager.residual_evaluations > 0 {
@@ -1125,14 +1131,8 @@ fn damping_search_reaches_the_same_minimum_with_fewer_linearizations() {
             search.jacobian_evaluations,
             plain.jacobian_evaluations
         );
-        // Every step attempt is recorded: the trials evaluated for their cost alone (rejection
-        // predictions and search trials) plus those linearized at once.
-        let trials = search
-            .iterations
-            .iter()
-            .filter(|r| r.trial_cost.is_finite())
-            .count();
-        assert!(search.residual_evaluations + search.jacobian_evaluations > trials);
+        // Every step attempt is recorded, search trials included.
+        evaluated_trials(&search);
         assert_eq!(search.linear_solves, search.iterations.len());
     }
     assert!(
