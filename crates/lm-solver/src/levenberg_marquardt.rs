@@ -736,7 +736,9 @@ impl Solver {
                         &mut search_records,
                     );
                     let searched = search_records.iter().filter(|r| r.accepted).count();
-                    residual_evaluations += search_records.len();
+                    // A trial whose solve failed was not evaluated.
+                    residual_evaluations +=
+                        search_records.iter().filter(|r| r.solve_succeeded).count();
                     linear_solves += search_records.len();
                     for r in &search_records {
                         evaluate_time += r.evaluate_time;
