@@ -4,8 +4,9 @@
 //! A residual row often has only a few structural non-zeros among the Jacobian's columns (a
 //! pixel's x coordinate does not depend on the focal length of y, say). [`CompactGram`] accumulates
 //! `sum u u^T` and `sum r u` over such compact rows `u` of fixed width `W`, then scatters the result
-//! onto the real columns. Rows are buffered in batches of [`BATCH`] and each entry is reduced over
-//! the batch in registers, which avoids reading and writing the `W x W` accumulators once per row.
+//! onto the real columns. Rows are buffered (32 at a time) and each entry is reduced over
+//! all buffered rows in registers, which avoids reading and writing the `W x W` accumulators once
+//! per row.
 //!
 //! ```
 //! use lm_solver::gram::CompactGram;
@@ -21,8 +22,13 @@
 //! assert_eq!(gradient[2], 2.0 * 0.5 + 4.0 * -1.0);
 //! ```
 
-/// Rows buffered per batch.
+/// Rows reduced together into the lane sums: the unit of the summation order.
 pub const BATCH: usize = 8;
+
+/// Rows buffered before the lane sums are read and written back: [`BATCH`] rows at a time are
+/// added in the same order as one batch per flush, but the sums stay in registers over
+/// `ROWS / BATCH` batches, a quarter of the accumulator loads and stores.
+const ROWS: usize = 4 * BATCH;
 
 /// Lanes of the partial sums: each entry keeps four running sums, reduced once in `finish`.
 const LANES: usize = 4;
@@ -38,9 +44,9 @@ const LANES: usize = 4;
 /// operations in the same order whatever the instruction set, so results are reproducible.
 #[derive(Debug, Clone)]
 pub struct CompactGram<const F: usize, const N: usize = 0> {
-    rows_f: [[f64; BATCH]; F],
-    rows_n: [[f64; BATCH]; N],
-    residuals: [f64; BATCH],
+    rows_f: [[f64; ROWS]; F],
+    rows_n: [[f64; ROWS]; N],
+    residuals: [f64; ROWS],
     filled: usize,
     lanes_ff: [[[f64; LANES]; F]; F],
     lanes_fn: [[[f64; LANES]; N]; F],
@@ -86,7 +92,7 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
         }
         self.residuals[p] = r;
         self.filled += 1;
-        if self.filled == BATCH {
+        if self.filled == ROWS {
             self.flush();
         }
     }
@@ -106,50 +112,73 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
         self.filled = 0;
     }
 
-    /// The loop compiled for AVX2 (four-wide vectors instead of SSE2's two). No fused
-    /// multiply-add is enabled, so the arithmetic, and the result, is that of `flush_lanes`.
+    /// The reduction in explicit AVX2 vectors (a lane sum is one register), the same
+    /// multiplications and additions in the same order as [`CompactGram::flush_lanes`], so the
+    /// same bits (no fused multiply-add). Written out because the auto-vectorizer split some
+    /// widths' loops across entries with shuffles (rational8 rows: twice the time).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn flush_avx2(&mut self) {
-        self.flush_lanes();
-    }
-
-    #[inline(always)]
-    fn accumulate(acc: &mut [f64; LANES], a: &[f64; BATCH], b: &[f64; BATCH]) {
-        for l in 0..LANES {
-            acc[l] += a[l] * b[l] + a[l + LANES] * b[l + LANES];
+        let batches = self.filled.div_ceil(BATCH);
+        for a in 0..F {
+            let ua = load_avx2(&self.rows_f[a]);
+            for c in a..F {
+                accumulate_avx2(&mut self.lanes_ff[a][c], &ua, &self.rows_f[c], batches);
+            }
+            for c in 0..N {
+                accumulate_avx2(&mut self.lanes_fn[a][c], &ua, &self.rows_n[c], batches);
+            }
+            accumulate_avx2(&mut self.gradient_f[a], &ua, &self.residuals, batches);
+        }
+        for a in 0..N {
+            let ua = load_avx2(&self.rows_n[a]);
+            for c in a..N {
+                accumulate_avx2(&mut self.lanes_nn[a][c], &ua, &self.rows_n[c], batches);
+            }
+            accumulate_avx2(&mut self.gradient_n[a], &ua, &self.residuals, batches);
         }
     }
 
-    #[inline(always)]
+    /// Reduces the buffered rows (`filled` of them, the rest of the last batch zero) into the
+    /// lane sums: per lane `l` and batch, `sum[l] += a[l] b[l] + a[l + 4] b[l + 4]`, batch
+    /// after batch.
     fn flush_lanes(&mut self) {
+        let batches = self.filled.div_ceil(BATCH);
+        let accumulate = |acc: &mut [f64; LANES], a: &[f64; ROWS], b: &[f64; ROWS]| {
+            for batch in 0..batches {
+                let (a, b) = (&a[batch * BATCH..], &b[batch * BATCH..]);
+                for l in 0..LANES {
+                    acc[l] += a[l] * b[l] + a[l + LANES] * b[l + LANES];
+                }
+            }
+        };
         for a in 0..F {
             let ua = self.rows_f[a];
             for c in a..F {
-                Self::accumulate(&mut self.lanes_ff[a][c], &ua, &self.rows_f[c]);
+                accumulate(&mut self.lanes_ff[a][c], &ua, &self.rows_f[c]);
             }
             for c in 0..N {
-                Self::accumulate(&mut self.lanes_fn[a][c], &ua, &self.rows_n[c]);
+                accumulate(&mut self.lanes_fn[a][c], &ua, &self.rows_n[c]);
             }
-            Self::accumulate(&mut self.gradient_f[a], &ua, &self.residuals);
+            accumulate(&mut self.gradient_f[a], &ua, &self.residuals);
         }
         for a in 0..N {
             let ua = self.rows_n[a];
             for c in a..N {
-                Self::accumulate(&mut self.lanes_nn[a][c], &ua, &self.rows_n[c]);
+                accumulate(&mut self.lanes_nn[a][c], &ua, &self.rows_n[c]);
             }
-            Self::accumulate(&mut self.gradient_n[a], &ua, &self.residuals);
+            accumulate(&mut self.gradient_n[a], &ua, &self.residuals);
         }
     }
 
     /// Reduces the rows still buffered and the lane sums, and returns the sums.
     pub fn finish(&mut self) -> &Self {
         if self.filled > 0 {
-            let filled = self.filled;
+            let (filled, end) = (self.filled, self.filled.div_ceil(BATCH) * BATCH);
             for column in self.rows_f.iter_mut().chain(self.rows_n.iter_mut()) {
-                column[filled..].fill(0.0);
+                column[filled..end].fill(0.0);
             }
-            self.residuals[filled..].fill(0.0);
+            self.residuals[filled..end].fill(0.0);
             self.flush();
         }
         let reduce = |v: &[f64; LANES]| (v[0] + v[1]) + (v[2] + v[3]);
@@ -254,6 +283,45 @@ impl<const F: usize, const N: usize> CompactGram<F, N> {
     }
 }
 
+/// One buffered column as registers, two per batch (rows 0..4 and 4..8).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn load_avx2(column: &[f64; ROWS]) -> [std::arch::x86_64::__m256d; 2 * ROWS / BATCH] {
+    // SAFETY: k < 2 ROWS / BATCH, so k * LANES + LANES <= ROWS.
+    std::array::from_fn(|k| unsafe {
+        std::arch::x86_64::_mm256_loadu_pd(column.as_ptr().add(k * LANES))
+    })
+}
+
+/// `acc += a * b` over `batches` batches of the buffered rows, `a` already in registers (two per
+/// batch), in the order of [`CompactGram::flush_lanes`]: per batch the products of rows 0..4 and
+/// 4..8 are added together first, then onto the sum.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn accumulate_avx2(
+    acc: &mut [f64; LANES],
+    a: &[std::arch::x86_64::__m256d; 2 * ROWS / BATCH],
+    b: &[f64; ROWS],
+    batches: usize,
+) {
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_storeu_pd};
+    // SAFETY: `acc` holds LANES values; batch k reads b[8k..8k + 8] with k < batches <= ROWS / 8.
+    unsafe {
+        let mut sum = _mm256_loadu_pd(acc.as_ptr());
+        for k in 0..batches.min(ROWS / BATCH) {
+            let low = _mm256_mul_pd(a[2 * k], _mm256_loadu_pd(b.as_ptr().add(k * BATCH)));
+            let high = _mm256_mul_pd(
+                a[2 * k + 1],
+                _mm256_loadu_pd(b.as_ptr().add(k * BATCH + LANES)),
+            );
+            sum = _mm256_add_pd(sum, _mm256_add_pd(low, high));
+        }
+        _mm256_storeu_pd(acc.as_mut_ptr(), sum);
+    }
+}
+
 /// Calls `add(target a, target c, a == c, sums(a, c))` for every pair `a <= c` of present
 /// targets: one diagonal block of [`CompactGram::scatter`].
 #[inline(always)]
@@ -276,36 +344,62 @@ fn upper_triangle(
 mod tests {
     use super::*;
 
-    /// The dispatched flush (AVX2 where available) and the plain one give the same bits.
-    #[test]
-    fn vector_width_does_not_change_the_result() {
-        let mut dispatched = CompactGram::<5>::new();
-        let mut plain = CompactGram::<5>::new();
-        let mut state = 7u64;
-        for i in 0..37 {
-            let mut u = [0.0; 5];
-            for v in &mut u {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                *v = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+    /// Entry `(i, j)` of `sum u u^T` (`j = None`: of `sum r u`) in the documented order: per
+    /// batch of 8 rows (the last padded with zeros) and lane `l`, `lane[l] += u_l u_l' + u_{l+4}
+    /// u_{l+4}'`, then `(lane0 + lane1) + (lane2 + lane3)`.
+    fn in_documented_order(rows: &[(Vec<f64>, f64)], i: usize, j: Option<usize>) -> f64 {
+        let value = |k: usize, column: Option<usize>| {
+            rows.get(k)
+                .map_or(0.0, |(u, r)| column.map_or(*r, |c| u[c]))
+        };
+        let mut lanes = [0.0; LANES];
+        for batch in 0..rows.len().div_ceil(BATCH) {
+            for (l, lane) in lanes.iter_mut().enumerate() {
+                let (k, m) = (batch * BATCH + l, batch * BATCH + l + LANES);
+                *lane += value(k, Some(i)) * value(k, j) + value(m, Some(i)) * value(m, j);
             }
-            dispatched.push(&u, &[], i as f64 * 0.01);
+        }
+        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    }
+
+    /// `count` random rows through the dispatched flush (AVX2 where available) and through the
+    /// plain loop alone, both compared bit for bit with the documented order.
+    fn check_flush_order<const F: usize, const N: usize>(count: usize, seed: u64) {
+        let mut dispatched = CompactGram::<F, N>::new();
+        let mut plain = CompactGram::<F, N>::new();
+        let mut state = seed;
+        let mut rows = Vec::new();
+        for i in 0..count {
+            let u: Vec<f64> = (0..F + N)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                })
+                .collect();
+            let r = i as f64 * 0.01 - 0.2;
+            let (fixed, model) = u.split_at(F);
+            dispatched.push(&fixed.try_into().unwrap(), &model.try_into().unwrap(), r);
             // The same rows through the plain loop only.
             let p = plain.filled;
-            for (column, value) in plain.rows_f.iter_mut().zip(&u) {
+            for (column, value) in plain.rows_f.iter_mut().zip(fixed) {
                 column[p] = *value;
             }
-            plain.residuals[p] = i as f64 * 0.01;
+            for (column, value) in plain.rows_n.iter_mut().zip(model) {
+                column[p] = *value;
+            }
+            plain.residuals[p] = r;
             plain.filled += 1;
-            if plain.filled == BATCH {
+            if plain.filled == ROWS {
                 plain.flush_lanes();
                 plain.filled = 0;
             }
+            rows.push((u, r));
         }
         if plain.filled > 0 {
             let filled = plain.filled;
-            for column in plain.rows_f.iter_mut() {
+            for column in plain.rows_f.iter_mut().chain(plain.rows_n.iter_mut()) {
                 column[filled..].fill(0.0);
             }
             plain.residuals[filled..].fill(0.0);
@@ -313,11 +407,43 @@ mod tests {
             plain.filled = 0;
         }
         let (a, b) = (dispatched.finish().clone(), plain.finish().clone());
-        for i in 0..5 {
-            assert_eq!(a.gradient(i).to_bits(), b.gradient(i).to_bits());
-            for j in 0..5 {
-                assert_eq!(a.entry(i, j).to_bits(), b.entry(i, j).to_bits());
+        for i in 0..F + N {
+            let expected = in_documented_order(&rows, i, None).to_bits();
+            assert_eq!(
+                a.gradient(i).to_bits(),
+                expected,
+                "gradient {i} of {count} rows"
+            );
+            assert_eq!(
+                b.gradient(i).to_bits(),
+                expected,
+                "gradient {i} of {count} rows"
+            );
+            for j in 0..F + N {
+                let expected = in_documented_order(&rows, i.min(j), Some(i.max(j))).to_bits();
+                assert_eq!(
+                    a.entry(i, j).to_bits(),
+                    expected,
+                    "({i}, {j}) of {count} rows"
+                );
+                assert_eq!(
+                    b.entry(i, j).to_bits(),
+                    expected,
+                    "({i}, {j}) of {count} rows"
+                );
             }
+        }
+    }
+
+    /// The dispatched flush (AVX2 where available) and the plain one give the bits of the
+    /// documented summation order, whatever the number of rows buffered per flush: full and
+    /// partial buffers, partial batches, the widths of calibration's rows.
+    #[test]
+    fn vector_width_and_buffering_do_not_change_the_result() {
+        for count in [1, 7, 8, 31, 32, 37, 54, 64, 70] {
+            check_flush_order::<5, 0>(count, 7 + count as u64);
+            check_flush_order::<8, 12>(count, 11 + count as u64);
+            check_flush_order::<11, 16>(count, 13 + count as u64);
         }
     }
 
