@@ -30,15 +30,6 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (quarter[0] + quarter[1]) + (quarter[2] + quarter[3]) + tail
 }
 
-/// True if no value is infinite or NaN. Branch-free over the exponent bits (a value is not
-/// finite exactly when its exponent bits are all ones), so the loop vectorizes; the early-exit
-/// `iter().all(f64::is_finite)` was a third of the normal equations' per-block bookkeeping.
-#[inline]
-pub(crate) fn all_finite(values: &[f64]) -> bool {
-    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
-    values.iter().fold(0, |m, v| m.max(v.to_bits() & EXPONENT)) < EXPONENT
-}
-
 /// `gram = J^T J` (full symmetric `cols x cols`) and `jtr = J^T r` for a column-major
 /// `rows x cols` matrix `jac`: one [`dot`] per entry of the upper triangle and of `J^T r`.
 ///
@@ -127,20 +118,6 @@ pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
 mod tests {
     use super::*;
     use nalgebra::DMatrix;
-
-    #[test]
-    fn all_finite_finds_every_non_finite_value_anywhere() {
-        let finite = [0.0, -0.0, 1.0, -f64::MAX, f64::MAX, f64::MIN_POSITIVE, 5e-324];
-        assert!(all_finite(&finite));
-        assert!(all_finite(&[]));
-        for bad in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN, -f64::NAN] {
-            for at in 0..=finite.len() {
-                let mut values = finite.to_vec();
-                values.insert(at, bad);
-                assert!(!all_finite(&values), "{bad} at {at}");
-            }
-        }
-    }
 
     #[test]
     fn cholesky_solves_a_spd_system() {

@@ -18,7 +18,7 @@
 //! is bit-for-bit the same with one thread or many.
 
 use crate::cost::{CostFunction, EvaluationError, GramBlocks, JacobianBlocks};
-use crate::kernels::{all_finite, gram_and_gradient};
+use crate::kernels::gram_and_gradient;
 use crate::loss::apply_correction;
 use crate::problem::{BlockRole, MAX_BLOCKS_PER_RESIDUAL, Problem, ResidualBlockId};
 use rayon::prelude::*;
@@ -426,7 +426,7 @@ fn evaluate_residual<C: CostFunction>(
         gram_and_gradient(jac, rows, cols, res, gram, jtr);
     }
     // A NaN anywhere in J or r shows up in the Gram matrix or the gradient.
-    if !(all_finite(gram) && all_finite(jtr)) {
+    if !gram.iter().chain(jtr.iter()).all(|v| v.is_finite()) {
         return Err(EvaluationFailure::NonFinite { residual: r });
     }
 
