@@ -127,11 +127,11 @@ fn sigmas_are_honest_for_every_model() {
 /// while still creeping along the valley (most at or below the truth start's RMS), and a
 /// refusal when the path ends at a pole of the model. Measured on 90 problems (seeds 0..90)
 /// before the outlier rejection's second run and the stagnation rule: rational8 4 higher
-/// minima, 5 at the limit, 0 refused; thin-prism12 5, 7 and 4; since then rational8 1, 0, 0 and
-/// thin-prism12 6, 0, 0 (docs/camera-model.md, "Convergence"). The bounds are those rates plus about two standard
-/// deviations of a count over 60 problems: at 30 problems and one bound for all misses,
-/// thin-prism12 sat at its limit, and any change of the solver's path, down to the last bit of
-/// one cost, moved a problem or two across it.
+/// minima, 5 at the limit, 0 refused; thin-prism12 5, 7 and 4; since then rational8 1, 0, 0
+/// and thin-prism12 6, 0, 0 (docs/camera-model.md, "Convergence"). The bounds are those first
+/// rates plus about two standard deviations of a count over 60 problems: at 30 problems and one
+/// bound for all misses, thin-prism12 sat at its limit, and any change of the solver's path,
+/// down to the last bit of one cost, moved a problem or two across it.
 #[test]
 fn every_model_converges_over_the_population() {
     // `CALIB_POPULATION_SEEDS=90` measures over more problems (docs/camera-model.md's table).
@@ -346,8 +346,8 @@ fn rejections_are_rechecked_with_every_point_in() {
 /// (50 accepted steps): with the suspected corners left out of the first solve the path ends
 /// against a pole of the rational denominator under both damping policies, and the covariance
 /// refuses the result. The second run, with every point in the first solve, reaches the truth
-/// start's minimum. (With the 20-step setting no thin-prism12 problem of the population ends at
-/// a pole without the second run: the rule stops those crawls before the wall.)
+/// start's minimum. (With the 20-step setting no thin-prism12 problem of the 90 ends at a pole
+/// without the second run, so the test keeps the path on which one does.)
 #[test]
 fn a_run_that_ends_at_a_pole_is_retried_with_every_point_in() {
     let model = CameraModel::ThinPrism12;
