@@ -21,9 +21,16 @@ fn run_ok(command: &mut Command) -> std::process::Output {
     run
 }
 
+/// `name` in this test binary's scratch directory, `target/tmp/calib-cli-cli` (kept after
+/// the run to look at, emptied once when the next run first asks for it, so a test never sees
+/// a file of an earlier run).
 fn temp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("calib-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    static EMPTIED: std::sync::Once = std::sync::Once::new();
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("calib-cli-cli");
+    EMPTIED.call_once(|| {
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+    });
     dir.join(name)
 }
 
