@@ -7,7 +7,7 @@ use crate::{Failure, print_stdout, write_json};
 use calib_export::remap::{read_image, write_image};
 use calib_export::{
     Calibrated, CameraCalibration, ExportOptions, Format, PixelMap, export, export_paths,
-    optimal_new_camera_matrix, read_calibration, remap_image, stereo_rectify,
+    export_texts, optimal_new_camera_matrix, read_calibration, remap_image, stereo_rectify,
 };
 use calib_single::CalibrationOptions;
 use camera_model::{AnyCamera, CameraModel};
@@ -48,35 +48,47 @@ pub fn export_targets(values: &[String]) -> Result<Vec<ExportTarget>, Failure> {
         .collect()
 }
 
-/// Writes the exports of `calibrated` (default options), refusing any that would replace an
-/// input; prints the files written unless quiet.
-pub fn write_exports(
+/// The files of the exports of `calibrated` (default options), rendered but not written:
+/// `(path, text, format)`, refusing any that would replace an input. Rendering first lets a
+/// command fail (a model the format cannot hold, a rectification that does not converge) before
+/// it replaces any previous file.
+pub fn render_exports(
     calibrated: &Calibrated,
     targets: &[ExportTarget],
     inputs: &[&str],
-    quiet: bool,
-) -> Result<(), Failure> {
+) -> Result<Vec<(PathBuf, String, Format)>, Failure> {
+    let mut files = Vec::new();
     for target in targets {
-        for path in export_paths(calibrated, target.format, &target.path) {
+        let paths = export_paths(calibrated, target.format, &target.path);
+        for path in &paths {
             check_not_input(&path.to_string_lossy(), inputs)?;
         }
-        let written = export(
-            calibrated,
-            target.format,
-            &target.path,
-            &ExportOptions::default(),
-        )
-        .map_err(|e| {
-            Failure(format!(
-                "--export {}={}: {e}",
-                target.format,
-                target.path.display()
-            ))
-        })?;
+        let texts =
+            export_texts(calibrated, target.format, &ExportOptions::default()).map_err(|e| {
+                Failure(format!(
+                    "--export {}={}: {e}",
+                    target.format,
+                    target.path.display()
+                ))
+            })?;
+        files.extend(
+            paths
+                .into_iter()
+                .zip(texts)
+                .map(|(path, text)| (path, text, target.format)),
+        );
+    }
+    Ok(files)
+}
+
+/// Writes rendered exports ([`render_exports`]), each file atomically; prints the files written
+/// unless quiet.
+pub fn write_rendered(files: &[(PathBuf, String, Format)], quiet: bool) -> Result<(), Failure> {
+    for (path, text, format) in files {
+        calib_core::write_atomically(path, text.as_bytes())
+            .map_err(|e| Failure(format!("--export {format}={}: {e}", path.display())))?;
         if !quiet {
-            for path in written {
-                print_stdout(&format!("wrote {} ({})\n", path.display(), target.format))?;
-            }
+            print_stdout(&format!("wrote {} ({format})\n", path.display()))?;
         }
     }
     Ok(())
@@ -207,13 +219,15 @@ pub fn apply_camera_file(
     } else {
         camera.camera.clone()
     };
-    options.model = start.model;
+    if options.intrinsic_guess.is_some() || options.distortion_guess.is_some() {
+        return Err(Failure(format!(
+            "{what} is the start; a guess (--guess, --distortion-guess, --left-guess, --right-guess) would be ignored: give one or the other"
+        )));
+    }
+    // Coefficients held by --fix carry over by name, not position.
+    *options = options.for_model(start.model);
     options.intrinsic_guess = Some(start.intrinsics);
     options.distortion_guess = Some(start.distortion.clone());
-    // Fixed coefficients from an earlier --fix refer to the old model's order.
-    options
-        .fixed_distortion
-        .retain(|&i| i < start.model.num_distortion_params());
     if fix {
         options.fix_focal_length = true;
         options.fix_principal_point = true;

@@ -106,13 +106,24 @@ pub fn print_stdout(text: &str) -> Result<(), Failure> {
 
 /// Parses `a,b,c` into numbers.
 pub fn parse_list(text: &str, expected: usize, what: &str) -> Result<Vec<f64>, Failure> {
-    let values: Result<Vec<f64>, _> = text.split(',').map(|v| v.trim().parse::<f64>()).collect();
-    match values {
-        Ok(v) if v.len() == expected && v.iter().all(|x| x.is_finite()) => Ok(v),
-        _ => Err(Failure(format!(
-            "{what}: expected {expected} comma-separated numbers, got '{text}'"
-        ))),
+    let items: Vec<&str> = text.split(',').map(str::trim).collect();
+    if items.len() != expected {
+        return Err(Failure(format!(
+            "{what}: expected {expected} comma-separated numbers, got {} in '{text}'",
+            items.len()
+        )));
     }
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, item)| match item.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(Failure(format!(
+                "{what}: value {} of {expected}, '{item}', is not a finite number",
+                i + 1
+            ))),
+        })
+        .collect()
 }
 
 /// Parses `WxH`.

@@ -41,6 +41,34 @@ impl OutputArgs {
         self.max_input_mb.saturating_mul(1 << 20)
     }
 
+    /// Refuses, before any work, output files (`-o`, `--export`) whose directory does not exist:
+    /// found after the calibration, the failure would come after some files were written.
+    pub fn check_directories(&self, targets: &[crate::after::ExportTarget]) -> Result<(), Failure> {
+        let outputs = self
+            .output
+            .iter()
+            .filter(|o| o.as_str() != "-")
+            .map(|o| ("-o".to_string(), std::path::PathBuf::from(o)))
+            .chain(
+                targets
+                    .iter()
+                    .map(|t| (format!("--export {}=", t.format), t.path.clone())),
+            );
+        for (option, path) in outputs {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+                && !dir.is_dir()
+            {
+                return Err(Failure(format!(
+                    "{option}{}{}: the directory {} does not exist",
+                    if option == "-o" { " " } else { "" },
+                    path.display(),
+                    dir.display()
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Refuses an output path that names one of the inputs: the result would replace the data.
     pub fn check_against(&self, inputs: &[&str]) -> Result<(), Failure> {
         if let Some(out) = &self.output {
@@ -145,6 +173,7 @@ pub fn calibrate_and_report<R: Report>(
     mut calibrate: impl FnMut() -> Result<R, Failure>,
 ) -> Result<R, Failure> {
     let targets = crate::after::export_targets(&output.export)?;
+    output.check_directories(&targets)?;
     let mut result = calibrate()?;
     let mut times = vec![*result.elapsed_mut()];
     for _ in 1..output.repeat.max(1) {
@@ -164,13 +193,18 @@ pub fn calibrate_and_report<R: Report>(
             let _ = writeln!(std::io::stderr(), "calib: {w}");
         }
     }
+    // Every export is rendered before anything is written: a failing one leaves all files as
+    // they were.
+    let exports = if targets.is_empty() {
+        Vec::new()
+    } else {
+        crate::after::render_exports(&result.calibrated(), &targets, inputs)?
+    };
     if let Some(path) = &output.output {
         let mut json = result.to_json();
         json["elapsed_seconds_all"] = serde_json::json!(all);
         write_json(path, &json)?;
     }
-    if !targets.is_empty() {
-        crate::after::write_exports(&result.calibrated(), &targets, inputs, output.quiet)?;
-    }
+    crate::after::write_rendered(&exports, output.quiet)?;
     Ok(result)
 }

@@ -161,6 +161,17 @@ impl CameraArgs {
         single_value(&self.intrinsics, "--intrinsics")
     }
 
+    /// The `--fix` names, split at commas.
+    pub fn fix_names(&self) -> Vec<&str> {
+        self.fix.as_deref().map_or(Vec::new(), |names| {
+            names
+                .split(',')
+                .map(str::trim)
+                .filter(|n| !n.is_empty())
+                .collect()
+        })
+    }
+
     /// The library options these arguments describe.
     pub fn options(&self) -> Result<CalibrationOptions, Failure> {
         self.options_for(self.model_name()?)
@@ -188,16 +199,9 @@ impl CameraArgs {
             FocalMethod::Bouguet => FocalInit::Bouguet,
             FocalMethod::LeastSquares => FocalInit::LeastSquares,
         };
-        if let Some(names) = &self.fix {
-            let names: Vec<&str> = names
-                .split(',')
-                .map(str::trim)
-                .filter(|n| !n.is_empty())
-                .collect();
-            options
-                .fix_distortion_by_name(&names)
-                .map_err(|e| Failure(format!("--fix: {e}")))?;
-        }
+        options
+            .fix_distortion_by_name(&self.fix_names())
+            .map_err(|e| Failure(format!("--fix: {e}")))?;
         if let Some(text) = &self.guess {
             let v = parse_list(text, 4, "--guess")?;
             options.intrinsic_guess = Some(Intrinsics::new(v[0], v[1], v[2], v[3]));
@@ -305,37 +309,78 @@ pub fn looks_like_image(path: &str) -> bool {
     [".jpg", ".jpeg", ".png"].iter().any(|e| lower.ends_with(e))
 }
 
+/// `calib single --compare-models`: every model from its own start, `--fix` names held in each
+/// model that has them (checked against all the compared models' names here).
+fn compare(args: &SingleArgs) -> Result<(), Failure> {
+    let camera = &args.camera;
+    let refuse = |option: &str, why: &str| {
+        Err(Failure(format!(
+            "--compare-models fits every model from its own start; {option} {why}"
+        )))
+    };
+    if !camera.model.is_empty() {
+        return refuse("--model", "picks one (leave it out to compare them all)");
+    }
+    if camera.distortion_guess.is_some() {
+        return refuse(
+            "--distortion-guess",
+            "has one model's coefficients (leave it out)",
+        );
+    }
+    if !camera.intrinsics.is_empty() || camera.fix_intrinsics {
+        return refuse(
+            "--intrinsics",
+            "would be one model's start (leave it and --fix-intrinsics out)",
+        );
+    }
+    if !args.output.export.is_empty() || args.output.report.is_some() {
+        return Err(Failure(
+            "--compare-models writes a comparison, not a calibration: calibrate with the chosen --model to --export or --report"
+                .into(),
+        ));
+    }
+    args.output.check_directories(&[])?;
+    let models = &calib_single::compare::MODELS;
+    let hold = camera.fix_names();
+    if let Some(unknown) = hold
+        .iter()
+        .find(|n| !models.iter().any(|m| m.distortion_names().contains(n)))
+    {
+        return Err(Failure(format!(
+            "--fix: no compared model has a coefficient '{unknown}'"
+        )));
+    }
+    let mut plain = camera.clone();
+    plain.fix = None;
+    let options = plain.options()?;
+    let (observations, _) = observations(args)?;
+    let comparison = calib_single::compare_models(&observations, &options, models, &hold);
+    if !args.output.quiet {
+        print_stdout(&comparison.table())?;
+    }
+    if let Some(path) = &args.output.output {
+        crate::write_json(path, &serde_json::to_value(&comparison)?)?;
+    }
+    Ok(())
+}
+
 pub fn run(args: &SingleArgs) -> Result<(), Failure> {
+    if args.compare_models {
+        return compare(args);
+    }
     let mut options = args.camera.options()?;
+    if args.camera.zero_tangential && options.model.tangential_params().is_empty() {
+        return Err(Failure(format!(
+            "--zero-tangential: the {} model has no tangential coefficients",
+            options.model
+        )));
+    }
     if args.camera.fix_intrinsics && args.camera.intrinsics_file()?.is_none() {
         return Err(Failure(
             "--fix-intrinsics: give the intrinsics with --intrinsics FILE".into(),
         ));
     }
     let (observations, source) = observations(args)?;
-    if args.compare_models {
-        if !args.camera.intrinsics.is_empty() {
-            return Err(Failure(
-                "--compare-models fits every model from its own start; it does not take --intrinsics"
-                    .into(),
-            ));
-        }
-        if !args.output.export.is_empty() || args.output.report.is_some() {
-            return Err(Failure(
-                "--compare-models writes a comparison, not a calibration: calibrate with the chosen --model to --export or --report"
-                    .into(),
-            ));
-        }
-        let comparison =
-            calib_single::compare_models(&observations, &options, &calib_single::compare::MODELS);
-        if !args.output.quiet {
-            print_stdout(&comparison.table())?;
-        }
-        if let Some(path) = &args.output.output {
-            crate::write_json(path, &serde_json::to_value(&comparison)?)?;
-        }
-        return Ok(());
-    }
     if let Some(path) = args.camera.intrinsics_file()? {
         let camera = crate::after::read_single_camera(path, "--intrinsics")?;
         crate::after::check_image_size(

@@ -93,16 +93,9 @@ impl StereoArgs {
                 }
                 right.model = model;
                 right.fixed_distortion.clear();
-                if let Some(names) = &self.camera.fix {
-                    let names: Vec<&str> = names
-                        .split(',')
-                        .map(str::trim)
-                        .filter(|n| !n.is_empty())
-                        .collect();
-                    right
-                        .fix_distortion_by_name(&names)
-                        .map_err(|e| Failure(format!("--fix for the right camera: {e}")))?;
-                }
+                right
+                    .fix_distortion_by_name(&self.camera.fix_names())
+                    .map_err(|e| Failure(format!("--fix for the right camera: {e}")))?;
             }
         }
         if let Some(text) = &self.left_guess {

@@ -214,9 +214,10 @@ fn stereo_on_real_data_and_synthetic_rigs() {
         "-",
     ]));
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    // Every right parameter held but fx, fy: shared with the left camera, estimated there.
     assert_eq!(
-        json["right"]["fixed_parameters"].as_array().unwrap().len(),
-        8
+        json["right"]["fixed_parameters"],
+        serde_json::json!(["cx", "cy", "k1", "k2", "p1", "p2"])
     );
     assert_eq!(json["left"]["fx"], json["right"]["fx"]);
 
@@ -851,4 +852,76 @@ fn reports_from_results_and_calibrate_commands() {
         .output()
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
+}
+
+/// Runs `calib ARGS...`, expects exit code 1 and returns stderr.
+fn refused(args: &[&str]) -> String {
+    let run = calib().args(args).output().unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(run.status.code(), Some(1), "{args:?}: {err}");
+    err
+}
+
+/// Options that would be silently ignored, or applied to the wrong coefficient, are refused with
+/// a message; a failing export leaves the previous result file as it was.
+#[test]
+fn conflicting_options_are_refused_and_failed_exports_write_nothing() {
+    let left = data("sourishg1/left.json");
+    for (extra, expected) in [
+        (&["--model", "rational8"][..], "--model picks one"),
+        (&["--distortion-guess=0.1,0,0,0"], "--distortion-guess"),
+        (&["--fix", "q9"], "no compared model has a coefficient 'q9'"),
+    ] {
+        let mut args = vec!["single", left.as_str(), "--compare-models"];
+        args.extend_from_slice(extra);
+        let err = refused(&args);
+        assert!(err.contains(expected), "{err}");
+    }
+    let err = refused(&[
+        "single",
+        &left,
+        "--model",
+        "kannala-brandt4",
+        "--zero-tangential",
+    ]);
+    assert!(err.contains("no tangential coefficients"), "{err}");
+    let err = refused(&["single", &left, "--guess", "400,nan,320,180"]);
+    assert!(err.contains("value 2 of 4, 'nan'"), "{err}");
+
+    // A start from a file and a guess: one of them would be ignored.
+    let start = temp("conflict-start.json");
+    run_ok(calib().args(["single", "-q", &left, "-o"]).arg(&start));
+    let err = refused(&[
+        "single",
+        &left,
+        "--intrinsics",
+        start.to_str().unwrap(),
+        "--guess",
+        "400,400,320,180",
+    ]);
+    assert!(err.contains("give one or the other"), "{err}");
+
+    // An export that cannot be written, found before or after the calibration: the previous
+    // result stays.
+    let out = temp("conflict-previous.json");
+    std::fs::write(&out, "previous").unwrap();
+    let missing_dir = temp("no-such-dir").join("x.yaml");
+    let export = format!("opencv={}", missing_dir.display());
+    let out_arg = out.to_str().unwrap();
+    let err = refused(&["single", "-q", &left, "-o", out_arg, "--export", &export]);
+    assert!(err.contains("does not exist"), "{err}");
+    let kalibr = format!("kalibr={}", temp("conflict.yaml").display());
+    let err = refused(&[
+        "single",
+        "-q",
+        &left,
+        "--model",
+        "brown-conrady5",
+        "-o",
+        out_arg,
+        "--export",
+        &kalibr,
+    ]);
+    assert!(err.contains("kalibr"), "{err}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous");
 }

@@ -13,6 +13,7 @@ use crate::error::CalibrationError;
 use crate::problem::JointProblem;
 use crate::solve::JointSolution;
 use crate::warnings::{Warning, WarningCode};
+use camera_model::{CameraModel, Validity};
 use nalgebra::{Matrix3, Point2, Vector2};
 
 /// Two views are duplicates when their homographies map the board's extent to pixels less than
@@ -161,6 +162,53 @@ pub fn duplicate_views(views: &[&View], homographies: &[Matrix3<f64>]) -> Vec<(u
     pairs
 }
 
+/// The `model-invalid` warning for `model` with `validity` (not covering the image with
+/// [`VALIDITY_MARGIN`]): whether the fold is inside the image or within the margin beyond it,
+/// and what to do.
+fn model_invalid_message(model: CameraModel, validity: &Validity) -> String {
+    // `coverage` compares each ray's fold with the border along the same ray; the nearest fold
+    // and the farthest corner may lie in different directions.
+    let (place, consequence) = if validity.coverage < 1.0 {
+        ("inside the image", "pixels beyond have no unique direction")
+    } else {
+        (
+            "just outside the image",
+            "pixels near the border are close to the fold, where the model is unreliable",
+        )
+    };
+    let remedy = if model == CameraModel::KannalaBrandt4 {
+        "hold the higher coefficients fixed (--fix k4 or --fix k3,k4) or add views with the board near the image corners"
+    } else {
+        "use a model with fewer terms or add views with the board near the image corners"
+    };
+    format!(
+        "the {model} lens model stops being one-to-one {place}: along its worst direction at {:.0}% of the distance from the principal point to the image border ({:.0}% is checked; the nearest fold is {:.0} px from the principal point): {consequence}; {remedy}",
+        100.0 * validity.coverage,
+        100.0 * (1.0 + VALIDITY_MARGIN),
+        validity.valid_radius_px
+    )
+}
+
+/// What to do about distortion coefficients the data does not determine, for `model`: a model
+/// with fewer terms of the same kind where there is one, else holding coefficients fixed.
+fn fewer_terms_advice(model: CameraModel) -> &'static str {
+    match model {
+        CameraModel::ThinPrism12 => {
+            "use a model with fewer terms (rational8, brown-conrady5 or brown-conrady4) or add views covering the image"
+        }
+        CameraModel::Rational8 => {
+            "use a model with fewer terms (brown-conrady5 or brown-conrady4) or add views covering the image"
+        }
+        CameraModel::BrownConrady5 => "use brown-conrady4 (no k3) or add views covering the image",
+        CameraModel::BrownConrady4 => {
+            "hold the undetermined coefficients fixed (--fix, e.g. --fix k2) or add views covering the image"
+        }
+        CameraModel::KannalaBrandt4 => {
+            "hold the higher coefficients fixed (--fix k4 or --fix k3,k4) or add views covering the image, out to its corners"
+        }
+    }
+}
+
 /// Warnings about each camera of a solved problem: principal point far off-centre, poorly
 /// determined intrinsics, views far less consistent than the others.
 pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<Warning> {
@@ -200,10 +248,7 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
         if !validity.covers_image(VALIDITY_MARGIN) {
             warnings.push(Warning::new(
                 WarningCode::ModelInvalid,
-                format!(
-                    "{who}the {} lens model stops being one-to-one {:.0} px from the principal point, inside the image (its corners are {:.0} px away): pixels beyond have no unique direction; use a model with fewer terms or add views with the board near the image corners",
-                    camera.model, validity.valid_radius_px, validity.image_radius_px
-                ),
+                format!("{who}{}", model_invalid_message(camera.model, &validity)),
             ));
         }
         if let Some(cov) = &solution.camera_covariance[c] {
@@ -238,13 +283,25 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                     .iter()
                     .filter(|o| o.camera == c)
                     .count();
+                let distortion_loose = loose.iter().any(|n| names[4..].contains(n));
+                // Along the undetermined direction the cost is curved, not quadratic: the
+                // linearized sigmas of the parameters that trade off with it are too small.
+                let advice = if distortion_loose {
+                    &format!(
+                        "the sigmas of this camera's other parameters may understate their uncertainty; {}",
+                        fewer_terms_advice(camera.model)
+                    )
+                } else {
+                    "add views with the board tilted in different directions and covering the image"
+                };
                 warnings.push(Warning::new(
                     WarningCode::PoorlyDetermined,
                     format!(
-                        "{who}{}: {} {} not determined by {views} views (correlation above {MAX_CORRELATION} or 3 sigma above {MAX_DISTORTION_UNCERTAINTY}); use a model with fewer terms (e.g. brown-conrady5 or brown-conrady4) or add views covering the image",
+                        "{who}{}: {} {} not determined by {views} view{} (correlation above {MAX_CORRELATION} or 3 sigma above {MAX_DISTORTION_UNCERTAINTY}); {advice}",
                         camera.model,
                         loose.join(", "),
-                        if loose.len() > 1 { "are" } else { "is" }
+                        if loose.len() > 1 { "are" } else { "is" },
+                        if views == 1 { "" } else { "s" }
                     ),
                 ));
             }
@@ -317,6 +374,60 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_model_invalid_message_places_the_fold() {
+        use super::{CameraModel, Validity, model_invalid_message};
+        let validity = |coverage: f64| Validity {
+            valid_radius_px: 376.0,
+            image_radius_px: 372.0,
+            coverage,
+        };
+        let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67));
+        assert!(
+            inside.contains("inside the image") && inside.contains("at 67% of the distance"),
+            "{inside}"
+        );
+        let outside = model_invalid_message(CameraModel::ThinPrism12, &validity(1.03));
+        assert!(
+            outside.contains("just outside the image") && outside.contains("105% is checked"),
+            "{outside}"
+        );
+        let fisheye = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95));
+        assert!(fisheye.contains("--fix k4"), "{fisheye}");
+    }
+
+    #[test]
+    fn undetermined_terms_are_answered_with_a_simpler_model_of_the_same_kind() {
+        use super::{CameraModel, fewer_terms_advice};
+        for model in [
+            CameraModel::BrownConrady4,
+            CameraModel::BrownConrady5,
+            CameraModel::Rational8,
+            CameraModel::ThinPrism12,
+            CameraModel::KannalaBrandt4,
+        ] {
+            let advice = fewer_terms_advice(model);
+            // Never the model itself, never a model with more terms, never a pinhole model for
+            // the fisheye.
+            for other in [
+                CameraModel::BrownConrady4,
+                CameraModel::BrownConrady5,
+                CameraModel::Rational8,
+                CameraModel::ThinPrism12,
+                CameraModel::KannalaBrandt4,
+            ] {
+                if advice.contains(other.name()) {
+                    assert!(
+                        other.num_params() < model.num_params()
+                            && other.is_fisheye() == model.is_fisheye(),
+                        "{model}: {advice}"
+                    );
+                }
+            }
+        }
+        assert!(fewer_terms_advice(CameraModel::BrownConrady4).contains("--fix"));
+    }
+
     use super::*;
     use nalgebra::Point3;
 

@@ -121,6 +121,30 @@ impl CalibrationOptions {
         self.fixed_distortion.dedup();
         Ok(())
     }
+
+    /// These options for the lens model `model`: the held coefficients carried over by name
+    /// ("p1" stays "p1", not the same position: `kannala-brandt4`'s third coefficient is `k3`,
+    /// `brown-conrady4`'s is `p1`; a name `model` lacks is dropped, that term being zero in it by
+    /// construction), the distortion guess kept only if the model is the same (a guess belongs to
+    /// one model's coefficients).
+    pub fn for_model(&self, model: CameraModel) -> CalibrationOptions {
+        let mut options = self.clone();
+        if model == self.model {
+            return options;
+        }
+        let names = self.model.distortion_names();
+        options.model = model;
+        options.distortion_guess = None;
+        options.fixed_distortion = self
+            .fixed_distortion
+            .iter()
+            .filter_map(|&i| names.get(i))
+            .filter_map(|name| model.distortion_names().iter().position(|n| n == name))
+            .collect();
+        options.fixed_distortion.sort_unstable();
+        options.fixed_distortion.dedup();
+        options
+    }
 }
 
 /// The solver settings calibration uses by default: the library's tolerances, which converge to

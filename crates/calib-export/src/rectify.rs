@@ -123,7 +123,9 @@ pub fn stereo_rectify(rig: &StereoRig, alpha: Option<f64>) -> Result<Rectificati
             let ray = pixel_ray(&camera.camera, &Vector2::new(u, v)).map_err(|e| {
                 ExportError::invalid(
                     format!("rectifying camera '{}'", camera.name),
-                    format!("image corner ({u}, {v}): {e}"),
+                    format!(
+                        "image corner ({u}, {v}): {e} (a lens model that is not one-to-one out to the image corners cannot be rectified: see the calibration's model-invalid warning, and recalibrate this camera with a model valid over the image, e.g. as calib single --compare-models recommends)"
+                    ),
                 )
             })?;
             let s = r * ray;

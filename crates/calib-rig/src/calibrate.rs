@@ -129,20 +129,11 @@ fn start_camera(
             needed: options.min_views,
         });
     }
-    let mut camera_options = options.camera.clone();
-    camera_options.model = model_of(observations, options, c);
+    // Held coefficients carry over to this camera's model by name; the guess only to cameras
+    // of the options' own model.
+    let mut camera_options = options.camera.for_model(model_of(observations, options, c));
     camera_options.skip_bad_views = false;
     camera_options.drop_duplicate_views = false;
-    camera_options
-        .fixed_distortion
-        .retain(|&i| i < camera_options.model.num_distortion_params());
-    if camera_options
-        .distortion_guess
-        .as_ref()
-        .is_some_and(|d| d.len() != camera_options.model.num_distortion_params())
-    {
-        camera_options.distortion_guess = None;
-    }
     if let Some(g) = given {
         camera_options.intrinsic_guess = Some(g.intrinsics);
         camera_options.distortion_guess = Some(g.distortion.clone());

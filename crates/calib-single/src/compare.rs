@@ -35,7 +35,8 @@ pub const MODELS: [CameraModel; 5] = [
 pub struct ModelRow {
     /// The lens model.
     pub model: CameraModel,
-    /// Number of camera parameters (`fx, fy, cx, cy` and the distortion).
+    /// Number of camera parameters (`fx, fy, cx, cy` and the distortion), less the distortion
+    /// coefficients held fixed.
     pub parameters: usize,
     /// RMS on all views (pixels), or `None` if the calibration failed.
     pub rms: Option<f64>,
@@ -56,6 +57,8 @@ pub struct ModelComparison {
     pub rows: Vec<ModelRow>,
     /// The recommended model, if any calibrated.
     pub recommended: Option<CameraModel>,
+    /// Names of the distortion coefficients held fixed in every model (empty: none).
+    pub held_fixed: Vec<String>,
 }
 
 /// Views `keep(i)` of `observations`.
@@ -96,23 +99,48 @@ fn held_out(
     ))
 }
 
+impl ModelRow {
+    /// The row of a model that could not be fitted, and why.
+    fn not_fitted(model: CameraModel, error: String) -> ModelRow {
+        ModelRow {
+            model,
+            parameters: model.num_params(),
+            rms: None,
+            cross_validated_rms: None,
+            valid_over_image: false,
+            warnings: Vec::new(),
+            error: Some(error),
+        }
+    }
+}
+
 /// Compares `models` on `observations` with `options` (its `model` is replaced by each
-/// candidate). Needs at least 4 views for the cross-validation; fewer give rows without it.
+/// candidate; coefficients it holds are carried over by name, [`CalibrationOptions::for_model`],
+/// its distortion guess is dropped) and `hold_fixed`, names of distortion coefficients held at
+/// zero in every model that has them ("k3", "p1"; a model without the term has it at zero by
+/// construction). Needs at least 4 views for the cross-validation; fewer give rows without it.
 pub fn compare_models(
     observations: &Observations,
     options: &CalibrationOptions,
     models: &[CameraModel],
+    hold_fixed: &[&str],
 ) -> ModelComparison {
     let even = subset(observations, |i| i % 2 == 0);
     let odd = subset(observations, |i| i % 2 == 1);
     let rows: Vec<ModelRow> = models
         .iter()
         .map(|&model| {
-            let mut o = options.clone();
-            o.model = model;
-            o.fixed_distortion
-                .retain(|&i| i < model.num_distortion_params());
+            let mut o = options.for_model(model);
+            let own: Vec<&str> = hold_fixed
+                .iter()
+                .copied()
+                .filter(|n| model.distortion_names().contains(n))
+                .collect();
+            if let Err(e) = o.fix_distortion_by_name(&own) {
+                return ModelRow::not_fitted(model, e);
+            }
             o.distortion_guess = None;
+            let held = o.fixed_distortion.len();
             let full = calibrate(observations, &o);
             let cross_validated_rms = (observations.views.len() >= 4)
                 .then(|| {
@@ -126,7 +154,7 @@ pub fn compare_models(
                     let size = r.image_size;
                     ModelRow {
                         model,
-                        parameters: model.num_params(),
+                        parameters: model.num_params() - held,
                         rms: Some(r.rms),
                         cross_validated_rms,
                         valid_over_image: r
@@ -138,13 +166,8 @@ pub fn compare_models(
                     }
                 }
                 Err(e) => ModelRow {
-                    model,
-                    parameters: model.num_params(),
-                    rms: None,
                     cross_validated_rms,
-                    valid_over_image: false,
-                    warnings: Vec::new(),
-                    error: Some(e.to_string()),
+                    ..ModelRow::not_fitted(model, e.to_string())
                 },
             }
         })
@@ -162,7 +185,20 @@ pub fn compare_models(
         })
         .min_by_key(|r| r.parameters)
         .map(|r| r.model);
-    ModelComparison { rows, recommended }
+    let names = options.model.distortion_names();
+    let mut held_fixed: Vec<String> = options
+        .fixed_distortion
+        .iter()
+        .filter_map(|&i| names.get(i).map(|n| n.to_string()))
+        .chain(hold_fixed.iter().map(|n| n.to_string()))
+        .collect();
+    held_fixed.sort_unstable();
+    held_fixed.dedup();
+    ModelComparison {
+        rows,
+        recommended,
+        held_fixed,
+    }
 }
 
 impl ModelComparison {
@@ -187,7 +223,14 @@ impl ModelComparison {
                 r.warnings.len(),
                 r.error
                     .as_ref()
-                    .map_or(String::new(), |e| format!("  failed: {e}"))
+                    .map_or(String::new(), |e| format!("  not fitted: {e}"))
+            );
+        }
+        if !self.held_fixed.is_empty() {
+            let _ = writeln!(
+                out,
+                "held at zero in every model that has them: {} (params counts the free ones)",
+                self.held_fixed.join(", ")
             );
         }
         match self.recommended {

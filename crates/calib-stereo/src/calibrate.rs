@@ -554,7 +554,14 @@ fn assemble(
             image_size: spec.image_size,
             intrinsics_std: [std[0], std[1], std[2], std[3]],
             distortion_std: std[4..].to_vec(),
-            fixed_parameters: spec.fixed.iter().map(|&i| names[i].to_string()).collect(),
+            // With the focal length shared (`focal_from`), fx and fy are held in this camera's
+            // block but estimated in the other's: not fixed.
+            fixed_parameters: spec
+                .fixed
+                .iter()
+                .filter(|&&i| !(spec.focal_from.is_some() && i < 2))
+                .map(|&i| names[i].to_string())
+                .collect(),
             rms: sums.rms(),
             num_points: sums.used,
         }

@@ -1,0 +1,147 @@
+//! Choosing a lens model (`compare_models`): the recommendation on data of a known lens, and
+//! coefficients held fixed by name in every model.
+
+use calib_core::synthetic::{SyntheticConfig, default_distortion};
+use calib_single::compare::MODELS;
+use calib_single::synthetic::generate;
+use calib_single::{CalibrationOptions, ModelComparison, Observations, compare_models};
+use camera_model::{CameraModel, Intrinsics};
+
+/// 20 views of a lens of `model` with its default distortion and 0.2 px of noise.
+fn views_of(model: CameraModel, intrinsics: Intrinsics) -> Observations {
+    let config = SyntheticConfig {
+        model,
+        distortion: default_distortion(model),
+        intrinsics,
+        views: 20,
+        noise_px: 0.2,
+        seed: 3,
+        ..Default::default()
+    };
+    generate(&config).unwrap().observations
+}
+
+fn row(comparison: &ModelComparison, model: CameraModel) -> &calib_single::ModelRow {
+    comparison.rows.iter().find(|r| r.model == model).unwrap()
+}
+
+#[test]
+fn the_simplest_adequate_model_is_recommended() {
+    // A brown-conrady4 lens: the richer pinhole models fit its noise a little better, and no
+    // better on the held-out views; brown-conrady4 has the fewest parameters.
+    let pinhole = views_of(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(800.0, 800.0, 319.5, 239.5),
+    );
+    let c = compare_models(&pinhole, &CalibrationOptions::default(), &MODELS, &[]);
+    assert_eq!(
+        c.recommended,
+        Some(CameraModel::BrownConrady4),
+        "{}",
+        c.table()
+    );
+    let simple = row(&c, CameraModel::BrownConrady4);
+    let rational = row(&c, CameraModel::Rational8);
+    // More terms: a lower RMS on the fitted views, not a lower cross-validated one.
+    assert!(
+        rational.rms.unwrap() <= simple.rms.unwrap(),
+        "{}",
+        c.table()
+    );
+    assert!(
+        simple.cross_validated_rms.unwrap() <= rational.cross_validated_rms.unwrap() * 1.02,
+        "{}",
+        c.table()
+    );
+    assert_eq!(simple.parameters, 8);
+    assert!(c.held_fixed.is_empty());
+
+    // A 150-degree fisheye: the pinhole models cannot follow it, kannala-brandt4 can.
+    let f = 400.0 / 75f64.to_radians();
+    let fisheye = views_of(
+        CameraModel::KannalaBrandt4,
+        Intrinsics::new(f, f, 322.0, 236.0),
+    );
+    let c = compare_models(&fisheye, &CalibrationOptions::default(), &MODELS, &[]);
+    assert_eq!(
+        c.recommended,
+        Some(CameraModel::KannalaBrandt4),
+        "{}",
+        c.table()
+    );
+    let kb = row(&c, CameraModel::KannalaBrandt4);
+    // Its held-out error is the noise's order (0.2 px per coordinate).
+    assert!(kb.cross_validated_rms.unwrap() < 0.4, "{}", c.table());
+}
+
+#[test]
+fn held_coefficients_are_matched_by_name_in_every_model() {
+    let obs = views_of(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(800.0, 800.0, 319.5, 239.5),
+    );
+    let models = [
+        CameraModel::BrownConrady4,
+        CameraModel::BrownConrady5,
+        CameraModel::KannalaBrandt4,
+    ];
+    let plain = compare_models(&obs, &CalibrationOptions::default(), &models, &[]);
+    // p1, p2 exist in the pinhole models only: kannala-brandt4's third and fourth coefficients
+    // are k3, k4, and must not be held in their place (it has no tangential terms: its fit is
+    // the plain one).
+    let c = compare_models(&obs, &CalibrationOptions::default(), &models, &["p1", "p2"]);
+    assert_eq!(c.held_fixed, ["p1", "p2"]);
+    assert!(
+        c.table()
+            .contains("held at zero in every model that has them: p1, p2")
+    );
+    assert_eq!(row(&c, CameraModel::BrownConrady4).parameters, 6);
+    assert_eq!(row(&c, CameraModel::BrownConrady5).parameters, 7);
+    assert_eq!(row(&c, CameraModel::KannalaBrandt4).parameters, 8);
+    assert_eq!(
+        row(&c, CameraModel::KannalaBrandt4).rms,
+        row(&plain, CameraModel::KannalaBrandt4).rms
+    );
+    // Holding the tangential terms costs the pinhole fits something (the lens has p1, p2).
+    let bc4 = row(&c, CameraModel::BrownConrady4).rms.unwrap();
+    assert!(bc4 > row(&plain, CameraModel::BrownConrady4).rms.unwrap() + 1e-6);
+
+    // The options' own held coefficients (indices in the options' model) carry over by name:
+    // brown-conrady5's k3 is held as kannala-brandt4's k3, brown-conrady4 has none, and
+    // brown-conrady5 with k3 held is brown-conrady4.
+    let mut options = CalibrationOptions::default();
+    options.model = CameraModel::BrownConrady5;
+    options.fix_distortion_by_name(&["k3"]).unwrap();
+    let c = compare_models(&obs, &options, &models, &[]);
+    assert_eq!(c.held_fixed, ["k3"]);
+    assert_eq!(row(&c, CameraModel::KannalaBrandt4).parameters, 7);
+    assert_ne!(
+        row(&c, CameraModel::KannalaBrandt4).rms,
+        row(&plain, CameraModel::KannalaBrandt4).rms
+    );
+    let (bc4, bc5) = (
+        row(&c, CameraModel::BrownConrady4).rms.unwrap(),
+        row(&c, CameraModel::BrownConrady5).rms.unwrap(),
+    );
+    assert!((bc4 - bc5).abs() < 1e-9, "{}", c.table());
+    assert_eq!(bc4, row(&plain, CameraModel::BrownConrady4).rms.unwrap());
+}
+
+#[test]
+fn options_carry_held_coefficients_to_another_model_by_name() {
+    let mut options = CalibrationOptions::default();
+    options.fix_distortion_by_name(&["k2", "p1"]).unwrap();
+    options.distortion_guess = Some(vec![0.1, 0.0, 0.0, 0.0]);
+    let rational = options.for_model(CameraModel::Rational8);
+    assert_eq!(rational.fixed_distortion, [1, 2]);
+    // A guess is one model's coefficients.
+    assert_eq!(rational.distortion_guess, None);
+    // kannala-brandt4 has k2 (index 1) and no p1.
+    assert_eq!(
+        options
+            .for_model(CameraModel::KannalaBrandt4)
+            .fixed_distortion,
+        [1]
+    );
+    assert_eq!(options.for_model(CameraModel::BrownConrady4), options);
+}
