@@ -212,7 +212,7 @@ pub fn apply_camera_file(
     let start = if explicit_model {
         widen(&camera.camera, options.model).ok_or_else(|| {
             Failure(format!(
-                "{what}: the file's camera is {}, which --model {} cannot start from (leave --model out to use the file's model)",
+                "{what}: the file's camera is {}, which the requested model {} cannot start from (leave --model, or --right-model for the right camera, out to use the file's model)",
                 camera.camera.model, options.model
             ))
         })?

@@ -5,7 +5,7 @@ use crate::run::{OutputArgs, calibrate_and_report};
 use crate::single::{CameraArgs, looks_like_image, split_named};
 use calib_core::JsonFile;
 use calib_rig::{RigObservations, RigOptions, calibrate_rig};
-use camera_model::RotationKind;
+use camera_model::{AnyCamera, CameraModel, RotationKind};
 use clap::Args;
 
 /// Arguments of `calib rig`.
@@ -64,7 +64,7 @@ impl RigArgs {
                 plain.len()
             )));
         }
-        let camera = self.camera.options_for(plain.first().copied())?;
+        let camera = self.camera.options_without_fix(plain.first().copied())?;
         let mut models = vec![None; n];
         for (name, model) in named {
             let c = camera_index(observations, name, "--model")?;
@@ -96,7 +96,21 @@ impl RigArgs {
             }
             given[c] = Some(file.camera);
         }
+        // --fix holds each name in every camera whose model has it.
+        let hold = self.camera.fix_names();
+        let camera_models: Vec<CameraModel> = (0..n)
+            .map(|c| {
+                given[c]
+                    .as_ref()
+                    .map(|g: &AnyCamera| g.model)
+                    .or(models[c])
+                    .or(observations.cameras[c].model)
+                    .unwrap_or(camera.model)
+            })
+            .collect();
+        crate::single::check_fix_names(&hold, &camera_models, "camera's model")?;
         let mut options = RigOptions::default();
+        options.hold_fixed = hold.iter().map(|n| n.to_string()).collect();
         options.solver = camera.solver.clone();
         // Euler angles are singular where a camera turns 90 degrees about y from the
         // reference: common in rigs.

@@ -41,6 +41,8 @@ pub struct CameraArgs {
     #[arg(long)]
     pub zero_tangential: bool,
     /// Hold these distortion coefficients at their initial value, e.g. --fix k2 or --fix k1,k2.
+    /// calib stereo, calib rig and --compare-models hold each name in every camera (model) that
+    /// has it.
     #[arg(long, value_name = "NAMES")]
     pub fix: Option<String>,
     /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
@@ -170,6 +172,14 @@ impl CameraArgs {
                 .filter(|n| !n.is_empty())
                 .collect()
         })
+    }
+
+    /// The library options without `--fix`, for commands that hold its names per camera
+    /// ([`hold_present`]).
+    pub fn options_without_fix(&self, model: Option<&str>) -> Result<CalibrationOptions, Failure> {
+        let mut plain = self.clone();
+        plain.fix = None;
+        plain.options_for(model)
     }
 
     /// The library options these arguments describe.
@@ -309,6 +319,32 @@ pub fn looks_like_image(path: &str) -> bool {
     [".jpg", ".jpeg", ".png"].iter().any(|e| lower.ends_with(e))
 }
 
+/// Refuses `--fix` names that none of `models` has (`whose` says what they are: "compared
+/// model", "camera's model").
+pub fn check_fix_names(names: &[&str], models: &[CameraModel], whose: &str) -> Result<(), Failure> {
+    match names
+        .iter()
+        .find(|n| !models.iter().any(|m| m.distortion_names().contains(n)))
+    {
+        Some(unknown) => Err(Failure(format!(
+            "--fix: no {whose} has a coefficient '{unknown}'"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Holds the `names` that `options.model` has (a term the model lacks is zero in it).
+pub fn hold_present(options: &mut CalibrationOptions, names: &[&str]) -> Result<(), Failure> {
+    let own: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|n| options.model.distortion_names().contains(n))
+        .collect();
+    options
+        .fix_distortion_by_name(&own)
+        .map_err(|e| Failure(format!("--fix: {e}")))
+}
+
 /// `calib single --compare-models`: every model from its own start, `--fix` names held in each
 /// model that has them (checked against all the compared models' names here).
 fn compare(args: &SingleArgs) -> Result<(), Failure> {
@@ -342,17 +378,8 @@ fn compare(args: &SingleArgs) -> Result<(), Failure> {
     args.output.check_directories(&[])?;
     let models = &calib_single::compare::MODELS;
     let hold = camera.fix_names();
-    if let Some(unknown) = hold
-        .iter()
-        .find(|n| !models.iter().any(|m| m.distortion_names().contains(n)))
-    {
-        return Err(Failure(format!(
-            "--fix: no compared model has a coefficient '{unknown}'"
-        )));
-    }
-    let mut plain = camera.clone();
-    plain.fix = None;
-    let options = plain.options()?;
+    check_fix_names(&hold, models, "compared model")?;
+    let options = camera.options_without_fix(None)?;
     let (observations, _) = observations(args)?;
     let comparison = calib_single::compare_models(&observations, &options, models, &hold);
     if !args.output.quiet {

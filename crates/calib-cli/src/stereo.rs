@@ -53,10 +53,12 @@ pub struct StereoArgs {
     /// Start the right camera from a single camera's calibration file.
     #[arg(long, value_name = "FILE")]
     pub right_intrinsics: Option<String>,
-    /// Hold the left camera's intrinsics and distortion (its single-camera estimate or guess).
+    /// Hold the left camera's intrinsics and distortion: those of --left-intrinsics FILE (or
+    /// --intrinsics) if given, else its single-camera estimate or guess.
     #[arg(long)]
     pub fix_left_intrinsics: bool,
-    /// Hold the right camera's intrinsics and distortion.
+    /// Hold the right camera's intrinsics and distortion: those of --right-intrinsics FILE (or
+    /// --intrinsics) if given, else its single-camera estimate or guess.
     #[arg(long)]
     pub fix_right_intrinsics: bool,
     /// Both cameras share fx and fy.
@@ -78,7 +80,8 @@ fn intrinsics(text: &str, what: &str) -> Result<Intrinsics, Failure> {
 impl StereoArgs {
     /// The library options.
     pub fn options(&self) -> Result<StereoOptions, Failure> {
-        let camera = self.camera.options()?;
+        // --fix holds each name in the camera(s) whose model has it.
+        let camera = self.camera.options_without_fix(self.camera.model_name()?)?;
         let mut left = camera.clone();
         let mut right = camera.clone();
         if let Some(name) = &self.right_model {
@@ -92,12 +95,12 @@ impl StereoArgs {
                     ));
                 }
                 right.model = model;
-                right.fixed_distortion.clear();
-                right
-                    .fix_distortion_by_name(&self.camera.fix_names())
-                    .map_err(|e| Failure(format!("--fix for the right camera: {e}")))?;
             }
         }
+        let names = self.camera.fix_names();
+        crate::single::check_fix_names(&names, &[left.model, right.model], "camera's model")?;
+        crate::single::hold_present(&mut left, &names)?;
+        crate::single::hold_present(&mut right, &names)?;
         if let Some(text) = &self.left_guess {
             left.intrinsic_guess = Some(intrinsics(text, "--left-guess")?);
         }
@@ -259,13 +262,15 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
             // An explicit model for this camera: --model, or --right-model for the right one.
             let explicit_model =
                 !args.camera.model.is_empty() || (k == 1 && args.right_model.is_some());
-            crate::after::apply_camera_file(
-                side,
-                camera,
-                explicit_model,
-                args.camera.fix_intrinsics,
-                what,
-            )?;
+            // --fix-left/right-intrinsics with a file hold the file's camera, as
+            // --fix-intrinsics does (not a calibration of the pairs' views started from it).
+            let hold = args.camera.fix_intrinsics
+                || if k == 0 {
+                    args.fix_left_intrinsics
+                } else {
+                    args.fix_right_intrinsics
+                };
+            crate::after::apply_camera_file(side, camera, explicit_model, hold, what)?;
             if args.camera.fix_intrinsics {
                 if k == 0 {
                     options.fix_left_intrinsics = true;

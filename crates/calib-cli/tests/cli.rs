@@ -925,3 +925,49 @@ fn conflicting_options_are_refused_and_failed_exports_write_nothing() {
     assert!(err.contains("kalibr"), "{err}");
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous");
 }
+
+/// calib stereo: `--fix` holds a name in the camera whose model has it; `--fix-left-intrinsics`
+/// with `--left-intrinsics FILE` holds the file's camera.
+#[test]
+fn stereo_holds_fixed_terms_per_camera_and_the_given_camera() {
+    let stereo = data("sourishg1/stereo.json");
+    let run = run_ok(calib().args([
+        "stereo",
+        &stereo,
+        "-q",
+        "--right-model",
+        "kannala-brandt4",
+        "--fix",
+        "k4",
+        "-o",
+        "-",
+    ]));
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(json["left"]["fixed_parameters"], serde_json::json!([]));
+    assert_eq!(json["right"]["fixed_parameters"], serde_json::json!(["k4"]));
+
+    let left = temp("held-left.json");
+    run_ok(
+        calib()
+            .args(["single", "-q", &data("sourishg1/left.json"), "-o"])
+            .arg(&left),
+    );
+    let run = run_ok(
+        calib()
+            .args([
+                "stereo",
+                &stereo,
+                "-q",
+                "--fix-left-intrinsics",
+                "--left-intrinsics",
+            ])
+            .arg(&left)
+            .args(["-o", "-"]),
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let given: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&left).unwrap()).unwrap();
+    for key in ["fx", "fy", "cx", "cy", "dist_coeffs"] {
+        assert_eq!(json["left"][key], given["camera"][key], "{key}");
+    }
+}

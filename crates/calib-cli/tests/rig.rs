@@ -402,3 +402,63 @@ fn rig_results_are_exported_reported_and_read_back() {
     );
     assert!(again.join("layout.svg").exists() && again.join("uncertainty-cam2.svg").exists());
 }
+
+/// `--fix` names are held in every camera whose model has them, by name; a name no camera has
+/// is refused.
+#[test]
+fn fix_names_are_held_per_camera_model() {
+    let file = temp("fix-rig.json");
+    run_ok(
+        calib()
+            .args([
+                "synth",
+                "rig",
+                "--cameras",
+                "3",
+                "--models",
+                "brown-conrady4,kannala-brandt4",
+                "--seed",
+                "5",
+                "-o",
+            ])
+            .arg(&file),
+    );
+    let out = temp("fix-rig-result.json");
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&file)
+            .args(["-q", "--fix", "k4", "-o"])
+            .arg(&out),
+    );
+    let result = read(&out);
+    let held: Vec<(String, Value)> = result["cameras"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["model"].as_str().unwrap().to_string(),
+                c["fixed_parameters"].clone(),
+            )
+        })
+        .collect();
+    for (model, fixed) in &held {
+        let expected = if model == "kannala-brandt4" {
+            serde_json::json!(["k4"])
+        } else {
+            serde_json::json!([])
+        };
+        assert_eq!(fixed, &expected, "{held:?}");
+    }
+    let run = calib()
+        .arg("rig")
+        .arg(&file)
+        .args(["--fix", "s1"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("no camera's model has a coefficient 's1'")
+    );
+}

@@ -132,6 +132,18 @@ fn start_camera(
     // Held coefficients carry over to this camera's model by name; the guess only to cameras
     // of the options' own model.
     let mut camera_options = options.camera.for_model(model_of(observations, options, c));
+    let own: Vec<&str> = options
+        .hold_fixed
+        .iter()
+        .map(String::as_str)
+        .filter(|n| camera_options.model.distortion_names().contains(n))
+        .collect();
+    camera_options
+        .fix_distortion_by_name(&own)
+        .map_err(|e| RigError::Camera {
+            camera: input.name.clone(),
+            source: CalibrationError::InvalidOption(e),
+        })?;
     camera_options.skip_bad_views = false;
     camera_options.drop_duplicate_views = false;
     if let Some(g) = given {

@@ -17,6 +17,10 @@ pub struct RigOptions {
     pub models: Vec<Option<CameraModel>>,
     /// Known cameras (intrinsics and distortion), held fixed, per camera (`None`: estimated).
     pub given: Vec<Option<AnyCamera>>,
+    /// Names of distortion coefficients ("k3", "p1") held at their start value in every camera
+    /// whose model has them (on top of `camera.fixed_distortion`, which is by position in
+    /// `camera.model` and carried to other models by name).
+    pub hold_fixed: Vec<String>,
     /// The reference camera: its frame is the rig's, its transform the identity.
     pub reference: usize,
     /// Rotation parameterization of frame poses and camera transforms (default
@@ -41,6 +45,7 @@ impl Default for RigOptions {
             camera: CalibrationOptions::default(),
             models: Vec::new(),
             given: Vec::new(),
+            hold_fixed: Vec::new(),
             reference: 0,
             rotation: RotationKind::So3,
             outliers: Some(OutlierRejection::default()),

@@ -99,6 +99,64 @@ pub trait LensDistortion:
         let _ = n;
         None
     }
+
+    /// For rational models whose denominator depends on the radius only, the smallest
+    /// normalized radius at which it vanishes (`None`: never, or a polynomial model). A walk
+    /// that samples [`LensDistortion::denominator`] can step over a band where it is negative
+    /// between two close roots (seen 6e-7 wide in `r`); this finds it exactly.
+    fn pole_radius(&self) -> Option<f64> {
+        None
+    }
+}
+
+/// The smallest `t > 0` with `1 + a t + b t^2 + c t^3 = 0` (a double root counts), if any.
+/// Between the roots of the derivative the cubic is monotonic: each such interval holds at most
+/// one root, found by bisection.
+pub(crate) fn smallest_positive_cubic_root(a: f64, b: f64, c: f64) -> Option<f64> {
+    let p = |t: f64| 1.0 + t * (a + t * (b + t * c));
+    // Critical points: a + 2 b t + 3 c t^2 = 0.
+    let mut knots: Vec<f64> = Vec::with_capacity(3);
+    if c != 0.0 {
+        let disc = 4.0 * b * b - 12.0 * a * c;
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            knots.extend([(-2.0 * b - s) / (6.0 * c), (-2.0 * b + s) / (6.0 * c)]);
+        }
+    } else if b != 0.0 {
+        knots.push(-a / (2.0 * b));
+    }
+    knots.retain(|t| t.is_finite() && *t > 0.0);
+    knots.sort_by(f64::total_cmp);
+    // Beyond the last critical point the cubic is monotonic: a root there lies below the
+    // Cauchy bound 1 + max |coefficient / leading coefficient|.
+    let lead = [c, b, a].into_iter().find(|v| *v != 0.0)?;
+    let bound = 1.0
+        + [1.0, a, b, c]
+            .iter()
+            .map(|v| (v / lead).abs())
+            .fold(0.0, f64::max);
+    knots.push(bound.max(knots.last().copied().unwrap_or(0.0)) * 2.0);
+    let mut lo = 0.0;
+    for hi in knots {
+        if p(hi) <= 0.0 {
+            // p(lo) > 0 >= p(hi), p monotonic between: bisect.
+            let (mut l, mut h) = (lo, hi);
+            for _ in 0..200 {
+                let m = 0.5 * (l + h);
+                if p(m) > 0.0 {
+                    l = m
+                } else {
+                    h = m
+                }
+                if h - l <= 1e-16 * h {
+                    break;
+                }
+            }
+            return Some(h);
+        }
+        lo = hi;
+    }
+    None
 }
 
 /// The Brown-Conrady / Heikkila 4-coefficient model: radial `k1`, `k2` and tangential (decentering)
@@ -336,6 +394,15 @@ macro_rules! rational_family_model {
                 let k = self.full();
                 let r2 = n.norm_squared();
                 ($n > 5).then(|| 1.0 + k[5] * r2 + k[6] * r2 * r2 + k[7] * r2 * r2 * r2)
+            }
+
+            fn pole_radius(&self) -> Option<f64> {
+                let k = self.full();
+                if $n > 5 {
+                    smallest_positive_cubic_root(k[5], k[6], k[7]).map(f64::sqrt)
+                } else {
+                    None
+                }
             }
         }
     };

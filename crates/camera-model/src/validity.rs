@@ -84,6 +84,8 @@ fn typed_validity<D: LensDistortion, P: Projection>(
     } else {
         MAX_PINHOLE_RADIUS
     };
+    // A denominator root found exactly: sampling alone can step over a thin negative band.
+    let pole = typed.distortion.pole_radius().unwrap_or(f64::INFINITY);
     let (mut valid_radius_px, mut coverage) = (f64::INFINITY, f64::INFINITY);
     for ray in 0..RAYS {
         let phi = 2.0 * std::f64::consts::PI * ray as f64 / RAYS as f64;
@@ -104,6 +106,15 @@ fn typed_validity<D: LensDistortion, P: Projection>(
         let mut last = 0.0;
         for step in 1..=STEPS {
             let rho = max_radius * step as f64 / STEPS as f64;
+            if rho >= pole {
+                // The ray ends just before the pole: between close roots of numerator and
+                // denominator the band of directions near it maps onto every radius.
+                if let Some(radius) = valid_at(pole * (1.0 - 1e-4)) {
+                    reached = reached.max(radius);
+                }
+                failed = true;
+                break;
+            }
             match valid_at(rho) {
                 Some(radius) => reached = reached.max(radius),
                 None => {
@@ -209,5 +220,53 @@ mod tests {
         let v = c.validity(640, 480);
         assert!(!v.covers_image(0.0), "{v:?}");
         assert!((v.valid_radius_px - 126.4).abs() < 1.0, "{v:?}");
+    }
+
+    /// Numerator and denominator with nearly shared roots (`t = r^2` at 0.0795 and 1e-7 to
+    /// 3e-7 beyond, the shape of a rational8 fit seen in a rig calibration): the projection is
+    /// within 1.5% of the identity except within 2e-4 of the pole; in a band 2e-7 wide in `t` the
+    /// denominator is negative and the band's directions map onto every radius. A walk sampling
+    /// every 0.037 in `r` steps over it; the exact root puts the limit just before the pole,
+    /// about `500 sqrt(0.0795)` = 141 px (143 px there, where the ratio is 1.0125).
+    #[test]
+    fn a_thin_band_of_negative_denominator_is_found() {
+        let t1 = 0.0795;
+        let (t2, n1, n2) = (t1 + 2e-7, t1 + 1e-7, t1 + 3e-7);
+        let c = camera(
+            CameraModel::Rational8,
+            vec![
+                -(1.0 / n1 + 1.0 / n2),
+                1.0 / (n1 * n2),
+                0.0,
+                0.0,
+                0.0,
+                -(1.0 / t1 + 1.0 / t2),
+                1.0 / (t1 * t2),
+                0.0,
+            ],
+        );
+        let v = c.validity(640, 480);
+        assert!(!v.covers_image(0.0), "{v:?}");
+        let pole_px = 500.0 * t1.sqrt();
+        assert!(
+            (v.valid_radius_px - 1.0125 * pole_px).abs() < 0.5,
+            "{v:?} vs {pole_px}"
+        );
+    }
+
+    #[test]
+    fn cubic_roots() {
+        use crate::distortion::smallest_positive_cubic_root as root;
+        // (1 - t/2)(1 - t/3)(1 - t/5) = 1 - (31/30) t + (1/3) t^2 - (1/30) t^3.
+        let r = root(-31.0 / 30.0, 1.0 / 3.0, -1.0 / 30.0).unwrap();
+        assert!((r - 2.0).abs() < 1e-12, "{r}");
+        // (1 + t)(1 + t^2): no positive root; (1 - t/2)^2: a double root at 2.
+        assert_eq!(root(1.0, 1.0, 1.0), None);
+        let r = root(-1.0, 0.25, 0.0).unwrap();
+        assert!((r - 2.0).abs() < 1e-6, "{r}");
+        // Linear and constant.
+        assert!((root(-0.5, 0.0, 0.0).unwrap() - 2.0).abs() < 1e-12);
+        assert_eq!(root(0.0, 0.0, 0.0), None);
+        assert_eq!(root(0.3, 0.0, 0.0), None);
     }
 }
