@@ -195,8 +195,35 @@ pub fn optimal_new_camera_matrix(
     alpha: f64,
 ) -> Result<(Matrix3<f64>, [u32; 4]), ExportError> {
     check_alpha(alpha)?;
-    let (inner, outer) = undistort_rectangles(camera, image_size, None, None)?;
+    // A grid point that cannot be undistorted (a fisheye seeing more than 90 degrees off its
+    // axis there) leaves the rectangles without their border: the matrix came out degenerate
+    // (fx 1.3 against fy 2.6 for a 200-degree lens) instead of failing.
     let (w, h) = (image_size.width as f64, image_size.height as f64);
+    let n = (GRID - 1) as f64;
+    let grid = (0..GRID * GRID).map(|k| {
+        Vector2::new(
+            (k % GRID) as f64 * (w - 1.0) / n,
+            (k / GRID) as f64 * (h - 1.0) / n,
+        )
+    });
+    let lost: Vec<Vector2<f64>> = grid
+        .filter(|p| undistort_point(camera, p, None, None).is_err())
+        .collect();
+    if let Some(first) = lost.first() {
+        return Err(ExportError::invalid(
+            "undistortion",
+            format!(
+                "{} of {} grid points over the {}x{} image (the first at pixel ({}, {})) have no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image",
+                lost.len(),
+                GRID * GRID,
+                image_size.width,
+                image_size.height,
+                first.x,
+                first.y
+            ),
+        ));
+    }
+    let (inner, outer) = undistort_rectangles(camera, image_size, None, None)?;
     let fx0 = (w - 1.0) / inner.width;
     let fy0 = (h - 1.0) / inner.height;
     let cx0 = -fx0 * inner.x;
@@ -234,6 +261,32 @@ pub(crate) fn clip_roi(r: &Rect, size: ImageSize) -> [u32; 4] {
 mod tests {
     use super::*;
     use camera_model::{CameraModel, Intrinsics};
+
+    /// An equidistant lens with f = 200 px sees 91.5 degrees at the middle of the 640x480
+    /// image's left and right edges and 114 degrees at its corners: no pinhole image holds that,
+    /// and the new camera matrix is refused instead of coming out degenerate; at f = 400 (46 and
+    /// 57 degrees) it is computed.
+    #[test]
+    fn a_fisheye_beyond_90_degrees_has_no_undistorted_camera() {
+        let fisheye = |f: f64| {
+            AnyCamera::new(
+                CameraModel::KannalaBrandt4,
+                Intrinsics::new(f, f, 319.5, 239.5),
+                vec![0.0; 4],
+            )
+            .unwrap()
+        };
+        let size = ImageSize {
+            width: 640,
+            height: 480,
+        };
+        for alpha in [0.0, 1.0] {
+            let err = optimal_new_camera_matrix(&fisheye(200.0), size, alpha).unwrap_err();
+            assert!(err.to_string().contains("more than 90 degrees"), "{err}");
+            let (k, _) = optimal_new_camera_matrix(&fisheye(400.0), size, alpha).unwrap();
+            assert!(k[(0, 0)] > 50.0 && (k[(0, 0)] / k[(1, 1)] - 1.0).abs() < 0.5, "{k}");
+        }
+    }
 
     fn camera(model: CameraModel, k1: f64) -> AnyCamera {
         let mut d = vec![0.0; model.num_distortion_params()];
