@@ -81,6 +81,26 @@ pub fn render_exports(
     Ok(files)
 }
 
+/// Refuses, before calibrating, an `--export` whose format cannot hold one of `models` (the
+/// calibrated cameras' lens models).
+pub fn check_export_models(
+    targets: &[ExportTarget],
+    models: &[CameraModel],
+) -> Result<(), Failure> {
+    for target in targets {
+        for &model in models {
+            calib_export::check_format_takes_model(target.format, model).map_err(|e| {
+                Failure(format!(
+                    "--export {}={}: {e}",
+                    target.format,
+                    target.path.display()
+                ))
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// Writes rendered exports ([`render_exports`]), each file atomically; prints the files written
 /// unless quiet.
 pub fn write_rendered(files: &[(PathBuf, String, Format)], quiet: bool) -> Result<(), Failure> {

@@ -109,6 +109,8 @@ impl RigArgs {
             })
             .collect();
         crate::single::check_fix_names(&hold, &camera_models, "camera's model")?;
+        let targets = crate::after::export_targets(&self.output.export)?;
+        crate::after::check_export_models(&targets, &camera_models)?;
         let mut options = RigOptions::default();
         options.hold_fixed = hold.iter().map(|n| n.to_string()).collect();
         options.solver = camera.solver.clone();

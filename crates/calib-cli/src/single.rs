@@ -423,6 +423,8 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
             &format!("--intrinsics {path}"),
         )?;
     }
+    let targets = crate::after::export_targets(&args.output.export)?;
+    crate::after::check_export_models(&targets, &[options.model])?;
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     let result = calibrate_and_report(&source, &inputs, &args.output, || {
         calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))

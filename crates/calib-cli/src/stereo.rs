@@ -280,6 +280,8 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
             }
         }
     }
+    let targets = crate::after::export_targets(&args.output.export)?;
+    crate::after::check_export_models(&targets, &[options.left.model, options.right.model])?;
     let inputs: Vec<&str> = args
         .inputs
         .iter()

@@ -911,6 +911,17 @@ fn conflicting_options_are_refused_and_failed_exports_write_nothing() {
     let err = refused(&["single", "-q", &left, "-o", out_arg, "--export", &export]);
     assert!(err.contains("does not exist"), "{err}");
     let kalibr = format!("kalibr={}", temp("conflict.yaml").display());
+    // A model the format can never hold is refused before calibrating.
+    let err = refused(&[
+        "single",
+        "-q",
+        &left,
+        "--model",
+        "rational8",
+        "--export",
+        &kalibr,
+    ]);
+    assert!(err.contains("rational8"), "{err}");
     let err = refused(&[
         "single",
         "-q",

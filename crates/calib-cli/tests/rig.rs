@@ -461,4 +461,34 @@ fn fix_names_are_held_per_camera_model() {
     assert!(
         String::from_utf8_lossy(&run.stderr).contains("no camera's model has a coefficient 's1'")
     );
+
+    // A format that cannot hold a camera's model: refused before calibrating with --export, and
+    // named by camera by calib export.
+    let prism = temp("fix-rig-prism.json");
+    let run = calib()
+        .arg("rig")
+        .arg(&file)
+        .args(["-q", "--model", "cam0=thin-prism12", "--export"])
+        .arg(format!("ros={}", temp("fix-rig.yaml").display()))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("thin-prism12"));
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(&file)
+            .args(["-q", "--model", "cam0=thin-prism12", "-o"])
+            .arg(&prism),
+    );
+    let run = calib()
+        .arg("export")
+        .arg(&prism)
+        .args(["--format", "ros", "-o"])
+        .arg(temp("fix-rig-ros.yaml"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("camera 'cam0'"), "{err}");
 }

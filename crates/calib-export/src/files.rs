@@ -147,6 +147,19 @@ pub fn export_paths(calibration: &Calibrated, format: Format, path: &Path) -> Ve
     }
 }
 
+/// Refuses a lens model that `format` cannot hold whatever the coefficients (Kalibr: the
+/// rational models; ROS: thin-prism12), so a command can say so before calibrating.
+pub fn check_format_takes_model(
+    format: Format,
+    model: camera_model::CameraModel,
+) -> Result<(), ExportError> {
+    match format {
+        Format::OpenCv => Ok(()),
+        Format::Ros => ros::check_model(model),
+        Format::Kalibr => kalibr::check_model(model),
+    }
+}
+
 /// The texts of an export, one per file of [`export_paths`].
 pub fn export_texts(
     calibration: &Calibrated,

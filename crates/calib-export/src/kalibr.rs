@@ -38,6 +38,18 @@ use nalgebra::{Matrix3, Vector3};
 use serde_norway::Value;
 use std::fmt::Write;
 
+/// Refuses a lens model Kalibr has no name for (before any calibration is run; brown-conrady5
+/// passes, as its k3 may end at zero).
+pub(crate) fn check_model(model: CameraModel) -> Result<(), ExportError> {
+    let camera = AnyCamera::new(
+        model,
+        Intrinsics::new(1.0, 1.0, 0.0, 0.0),
+        vec![0.0; model.num_distortion_params()],
+    )
+    .map_err(|e| ExportError::Unsupported(e.to_string()))?;
+    kalibr_model(&camera).map(|_| ())
+}
+
 fn kalibr_model(camera: &AnyCamera) -> Result<(&'static str, Vec<f64>), ExportError> {
     let d = &camera.distortion;
     let unsupported = |detail: &str| ExportError::UnsupportedModel {

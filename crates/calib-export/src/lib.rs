@@ -32,7 +32,8 @@ mod yaml;
 pub use calibration::{Calibrated, CameraCalibration, CameraRig, StereoRig};
 pub use error::ExportError;
 pub use files::{
-    ExportOptions, Format, export, export_paths, export_texts, parse_calibration, read_calibration,
+    ExportOptions, Format, check_format_takes_model, export, export_paths, export_texts,
+    parse_calibration, read_calibration,
 };
 pub use rectify::{Rectification, stereo_rectify};
 pub use remap::{PixelMap, remap_image};

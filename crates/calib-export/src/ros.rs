@@ -50,6 +50,17 @@ use nalgebra::{Matrix3, Matrix3x4};
 use serde_norway::Value;
 use std::fmt::Write;
 
+/// Refuses a lens model camera_info has no name for (before any calibration is run).
+pub(crate) fn check_model(model: CameraModel) -> Result<(), ExportError> {
+    let camera = AnyCamera::new(
+        model,
+        camera_model::Intrinsics::new(1.0, 1.0, 0.0, 0.0),
+        vec![0.0; model.num_distortion_params()],
+    )
+    .map_err(|e| ExportError::Unsupported(e.to_string()))?;
+    ros_model(&camera).map(|_| ())
+}
+
 /// ROS's name and coefficients for a camera, or the typed error for a model ROS lacks.
 fn ros_model(camera: &AnyCamera) -> Result<(&'static str, Vec<f64>), ExportError> {
     let d = &camera.distortion;
@@ -155,7 +166,20 @@ pub fn write(
         Calibrated::Rig(r) => r
             .cameras
             .iter()
-            .map(|c| unrectified(c, options.alpha))
+            .map(|c| {
+                unrectified(c, options.alpha).map_err(|e| match e {
+                    ExportError::UnsupportedModel {
+                        format,
+                        model,
+                        detail,
+                    } => ExportError::UnsupportedModel {
+                        format,
+                        model,
+                        detail: format!("{detail} [camera '{}']", c.name),
+                    },
+                    other => other,
+                })
+            })
             .collect(),
         Calibrated::Stereo(s) => {
             let rect = stereo_rectify(s, options.alpha)?;

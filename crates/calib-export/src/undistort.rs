@@ -284,7 +284,10 @@ mod tests {
             let err = optimal_new_camera_matrix(&fisheye(200.0), size, alpha).unwrap_err();
             assert!(err.to_string().contains("more than 90 degrees"), "{err}");
             let (k, _) = optimal_new_camera_matrix(&fisheye(400.0), size, alpha).unwrap();
-            assert!(k[(0, 0)] > 50.0 && (k[(0, 0)] / k[(1, 1)] - 1.0).abs() < 0.5, "{k}");
+            assert!(
+                k[(0, 0)] > 50.0 && (k[(0, 0)] / k[(1, 1)] - 1.0).abs() < 0.5,
+                "{k}"
+            );
         }
     }
 
