@@ -30,6 +30,33 @@ fn run_ok(command: &mut Command) -> std::process::Output {
     run
 }
 
+/// `calib synth rig ARGS... -o NAME` in the scratch directory; the file's path.
+fn synthetic_rig(args: &[&str], name: &str) -> std::path::PathBuf {
+    let file = temp(name);
+    run_ok(
+        calib()
+            .args(["synth", "rig"])
+            .args(args)
+            .arg("-o")
+            .arg(&file),
+    );
+    file
+}
+
+/// `calib rig INPUT ARGS... -q -o NAME` in the scratch directory, and its result.
+fn calibrated_rig(input: &std::path::Path, args: &[&str], name: &str) -> Value {
+    let out = temp(name);
+    run_ok(
+        calib()
+            .arg("rig")
+            .arg(input)
+            .args(args)
+            .args(["-q", "-o"])
+            .arg(&out),
+    );
+    read(&out)
+}
+
 fn read(path: &std::path::Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -97,31 +124,11 @@ fn synthetic_rig_is_calibrated_with_the_documented_keys() {
 
 #[test]
 fn reference_and_errors_name_cameras() {
-    let input = temp("rig3.json");
-    run_ok(
-        calib()
-            .args([
-                "synth",
-                "rig",
-                "--cameras",
-                "3",
-                "--views",
-                "30",
-                "--layout",
-                "line",
-                "-o",
-            ])
-            .arg(&input),
+    let input = synthetic_rig(
+        &["--cameras", "3", "--views", "30", "--layout", "line"],
+        "rig3.json",
     );
-    let out = temp("rig3-result.json");
-    run_ok(
-        calib()
-            .arg("rig")
-            .arg(&input)
-            .args(["--reference", "cam1", "-q", "-o"])
-            .arg(&out),
-    );
-    let result = read(&out);
+    let result = calibrated_rig(&input, &["--reference", "cam1"], "rig3-result.json");
     assert_eq!(result["reference"], 1);
     assert_eq!(
         result["cameras"][1]["T"],
@@ -407,31 +414,18 @@ fn rig_results_are_exported_reported_and_read_back() {
 /// is refused.
 #[test]
 fn fix_names_are_held_per_camera_model() {
-    let file = temp("fix-rig.json");
-    run_ok(
-        calib()
-            .args([
-                "synth",
-                "rig",
-                "--cameras",
-                "3",
-                "--models",
-                "brown-conrady4,kannala-brandt4",
-                "--seed",
-                "5",
-                "-o",
-            ])
-            .arg(&file),
+    let file = synthetic_rig(
+        &[
+            "--cameras",
+            "3",
+            "--models",
+            "brown-conrady4,kannala-brandt4",
+            "--seed",
+            "5",
+        ],
+        "fix-rig.json",
     );
-    let out = temp("fix-rig-result.json");
-    run_ok(
-        calib()
-            .arg("rig")
-            .arg(&file)
-            .args(["-q", "--fix", "k4", "-o"])
-            .arg(&out),
-    );
-    let result = read(&out);
+    let result = calibrated_rig(&file, &["--fix", "k4"], "fix-rig-result.json");
     let held: Vec<(String, Value)> = result["cameras"]
         .as_array()
         .unwrap()
@@ -464,7 +458,7 @@ fn fix_names_are_held_per_camera_model() {
 
     // A format that cannot hold a camera's model: refused before calibrating with --export, and
     // named by camera by calib export.
-    let prism = temp("fix-rig-prism.json");
+
     let run = calib()
         .arg("rig")
         .arg(&file)
@@ -474,16 +468,14 @@ fn fix_names_are_held_per_camera_model() {
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&run.stderr).contains("thin-prism12"));
-    run_ok(
-        calib()
-            .arg("rig")
-            .arg(&file)
-            .args(["-q", "--model", "cam0=thin-prism12", "-o"])
-            .arg(&prism),
+    calibrated_rig(
+        &file,
+        &["--model", "cam0=thin-prism12"],
+        "fix-rig-prism.json",
     );
     let run = calib()
         .arg("export")
-        .arg(&prism)
+        .arg(temp("fix-rig-prism.json"))
         .args(["--format", "ros", "-o"])
         .arg(temp("fix-rig-ros.yaml"))
         .output()

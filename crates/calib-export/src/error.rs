@@ -84,6 +84,23 @@ pub enum ExportError {
 }
 
 impl ExportError {
+    /// Says which camera of a rig an unsupported-model error is about (`label`, e.g.
+    /// "camera 'cam1', cam1"); other errors pass unchanged.
+    pub(crate) fn about_camera(self, label: &str) -> Self {
+        match self {
+            ExportError::UnsupportedModel {
+                format,
+                model,
+                detail,
+            } => ExportError::UnsupportedModel {
+                format,
+                model,
+                detail: format!("{detail} [{label}]"),
+            },
+            other => other,
+        }
+    }
+
     /// A [`ExportError::Field`] error.
     pub(crate) fn field(path: &str, key: &str, reason: impl Into<String>) -> Self {
         ExportError::Field {

@@ -136,27 +136,11 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
                     &r.overlaps[n],
                     chain.as_ref().map(|(r, t)| (r, t)),
                 )
-                .map_err(|e| name_camera(e, n, &camera.name))?;
+                .map_err(|e| e.about_camera(&format!("camera '{}', cam{n}", camera.name)))?;
             }
         }
     }
     Ok(out)
-}
-
-/// Says which camera of a rig an error is about (Kalibr names them by index).
-fn name_camera(e: ExportError, index: usize, name: &str) -> ExportError {
-    match e {
-        ExportError::UnsupportedModel {
-            format,
-            model,
-            detail,
-        } => ExportError::UnsupportedModel {
-            format,
-            model,
-            detail: format!("{detail} [camera '{name}', cam{index}]"),
-        },
-        other => other,
-    }
 }
 
 /// True if a parsed document looks like a camchain.

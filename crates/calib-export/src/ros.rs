@@ -167,18 +167,8 @@ pub fn write(
             .cameras
             .iter()
             .map(|c| {
-                unrectified(c, options.alpha).map_err(|e| match e {
-                    ExportError::UnsupportedModel {
-                        format,
-                        model,
-                        detail,
-                    } => ExportError::UnsupportedModel {
-                        format,
-                        model,
-                        detail: format!("{detail} [camera '{}']", c.name),
-                    },
-                    other => other,
-                })
+                unrectified(c, options.alpha)
+                    .map_err(|e| e.about_camera(&format!("camera '{}'", c.name)))
             })
             .collect(),
         Calibrated::Stereo(s) => {
