@@ -396,12 +396,6 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         return compare(args);
     }
     let mut options = args.camera.options()?;
-    if args.camera.zero_tangential && options.model.tangential_params().is_empty() {
-        return Err(Failure(format!(
-            "--zero-tangential: the {} model has no tangential coefficients",
-            options.model
-        )));
-    }
     if args.camera.fix_intrinsics && args.camera.intrinsics_file()?.is_none() {
         return Err(Failure(
             "--fix-intrinsics: give the intrinsics with --intrinsics FILE".into(),
@@ -422,6 +416,13 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
             args.camera.fix_intrinsics,
             &format!("--intrinsics {path}"),
         )?;
+    }
+    // The model is final here (an --intrinsics file may have chosen it).
+    if args.camera.zero_tangential && options.model.tangential_params().is_empty() {
+        return Err(Failure(format!(
+            "--zero-tangential: the {} model has no tangential coefficients",
+            options.model
+        )));
     }
     let targets = crate::after::export_targets(&args.output.export)?;
     crate::after::check_export_models(&targets, &[options.model])?;
