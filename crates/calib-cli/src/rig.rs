@@ -111,8 +111,23 @@ impl RigArgs {
         crate::single::check_fix_names(&hold, &camera_models, "camera's model")?;
         let targets = crate::after::export_targets(&self.output.export)?;
         crate::after::check_export_models(&targets, &camera_models)?;
+        let mut hold_by_camera = vec![Vec::new(); n];
+        for (name, names) in self.camera.fix_per_camera() {
+            let c = camera_index(observations, name, "--fix")?;
+            for coefficient in names {
+                if !camera_models[c].distortion_names().contains(&coefficient) {
+                    return Err(Failure(format!(
+                        "--fix {name}=...: camera '{name}' ({}) has no coefficient '{coefficient}' (its coefficients: {})",
+                        camera_models[c],
+                        camera_models[c].distortion_names().join(", ")
+                    )));
+                }
+                hold_by_camera[c].push(coefficient.to_string());
+            }
+        }
         let mut options = RigOptions::default();
         options.hold_fixed = hold.iter().map(|n| n.to_string()).collect();
+        options.hold_fixed_by_camera = hold_by_camera;
         options.solver = camera.solver.clone();
         // Euler angles are singular where a camera turns 90 degrees about y from the
         // reference: common in rigs.

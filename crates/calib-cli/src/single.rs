@@ -40,11 +40,12 @@ pub struct CameraArgs {
     /// Hold the tangential distortion p1, p2 at zero.
     #[arg(long)]
     pub zero_tangential: bool,
-    /// Hold these distortion coefficients at their initial value, e.g. --fix k2 or --fix k1,k2.
-    /// calib stereo, calib rig and --compare-models hold each name in every camera (model) that
-    /// has it.
+    /// Hold these distortion coefficients at their initial value, e.g. --fix k2 or --fix k1,k2
+    /// (repeatable). calib stereo, calib rig and --compare-models hold each name in every camera
+    /// (model) that has it; calib stereo and calib rig also take CAMERA=NAMES for one camera
+    /// (--fix right=k3,k4; stereo cameras are left and right).
     #[arg(long, value_name = "NAMES")]
-    pub fix: Option<String>,
+    pub fix: Vec<String>,
     /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
     #[arg(long, value_name = "FX,FY,CX,CY")]
     pub guess: Option<String>,
@@ -163,27 +164,55 @@ impl CameraArgs {
         single_value(&self.intrinsics, "--intrinsics")
     }
 
-    /// The `--fix` names, split at commas.
+    /// The `--fix` names for every camera (the values without `CAMERA=`), split at commas.
     pub fn fix_names(&self) -> Vec<&str> {
-        self.fix.as_deref().map_or(Vec::new(), |names| {
-            names
-                .split(',')
-                .map(str::trim)
-                .filter(|n| !n.is_empty())
-                .collect()
-        })
+        split_named(&self.fix)
+            .0
+            .into_iter()
+            .flat_map(|names| names.split(','))
+            .map(str::trim)
+            .filter(|n| !n.is_empty())
+            .collect()
+    }
+
+    /// The `--fix CAMERA=NAMES` values: camera name and its names, split at commas.
+    pub fn fix_per_camera(&self) -> Vec<(&str, Vec<&str>)> {
+        split_named(&self.fix)
+            .1
+            .into_iter()
+            .map(|(camera, names)| {
+                let names = names
+                    .split(',')
+                    .map(str::trim)
+                    .filter(|n| !n.is_empty())
+                    .collect();
+                (camera, names)
+            })
+            .collect()
+    }
+
+    /// Refuses `--fix CAMERA=NAMES` where there is one camera.
+    fn no_fix_per_camera(&self) -> Result<(), Failure> {
+        match self.fix_per_camera().first() {
+            Some((camera, _)) => Err(Failure(format!(
+                "--fix {camera}=...: a value per camera is for calib stereo (left, right) and calib rig; give the names alone"
+            ))),
+            None => Ok(()),
+        }
     }
 
     /// The library options without `--fix`, for commands that hold its names per camera
     /// ([`hold_present`]).
     pub fn options_without_fix(&self, model: Option<&str>) -> Result<CalibrationOptions, Failure> {
         let mut plain = self.clone();
-        plain.fix = None;
+        plain.fix.clear();
         plain.options_for(model)
     }
 
-    /// The library options these arguments describe.
+    /// The library options these arguments describe (for one camera: `--fix CAMERA=...` is
+    /// refused).
     pub fn options(&self) -> Result<CalibrationOptions, Failure> {
+        self.no_fix_per_camera()?;
         self.options_for(self.model_name()?)
     }
 
@@ -376,6 +405,7 @@ fn compare(args: &SingleArgs) -> Result<(), Failure> {
         ));
     }
     args.output.check_directories(&[])?;
+    camera.no_fix_per_camera()?;
     let models = &calib_single::compare::MODELS;
     let hold = camera.fix_names();
     check_fix_names(&hold, models, "compared model")?;

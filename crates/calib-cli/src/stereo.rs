@@ -101,6 +101,19 @@ impl StereoArgs {
         crate::single::check_fix_names(&names, &[left.model, right.model], "camera's model")?;
         crate::single::hold_present(&mut left, &names)?;
         crate::single::hold_present(&mut right, &names)?;
+        for (camera, names) in self.camera.fix_per_camera() {
+            let side = match camera {
+                "left" => &mut left,
+                "right" => &mut right,
+                other => {
+                    return Err(Failure(format!(
+                        "--fix {other}=...: calib stereo's cameras are left and right"
+                    )));
+                }
+            };
+            side.fix_distortion_by_name(&names)
+                .map_err(|e| Failure(format!("--fix {camera}=...: {e}")))?;
+        }
         if let Some(text) = &self.left_guess {
             left.intrinsic_guess = Some(intrinsics(text, "--left-guess")?);
         }

@@ -956,6 +956,32 @@ fn stereo_holds_fixed_terms_per_camera_and_the_given_camera() {
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     assert_eq!(json["left"]["fixed_parameters"], serde_json::json!([]));
     assert_eq!(json["right"]["fixed_parameters"], serde_json::json!(["k4"]));
+    // A name both models have, held in one camera only; a camera or name that does not exist.
+    let run = run_ok(calib().args([
+        "stereo",
+        &stereo,
+        "-q",
+        "--model",
+        "brown-conrady5",
+        "--right-model",
+        "kannala-brandt4",
+        "--fix",
+        "right=k3,k4",
+        "-o",
+        "-",
+    ]));
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(json["left"]["fixed_parameters"], serde_json::json!([]));
+    assert_eq!(
+        json["right"]["fixed_parameters"],
+        serde_json::json!(["k3", "k4"])
+    );
+    let err = refused(&["stereo", &stereo, "--fix", "middle=k1"]);
+    assert!(err.contains("left and right"), "{err}");
+    let err = refused(&["stereo", &stereo, "--fix", "left=k4"]);
+    assert!(err.contains("--fix left="), "{err}");
+    let err = refused(&["single", &data("sourishg1/left.json"), "--fix", "left=k1"]);
+    assert!(err.contains("a value per camera"), "{err}");
 
     let left = temp("held-left.json");
     run_ok(

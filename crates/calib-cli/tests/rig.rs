@@ -425,7 +425,11 @@ fn fix_names_are_held_per_camera_model() {
         ],
         "fix-rig.json",
     );
-    let result = calibrated_rig(&file, &["--fix", "k4"], "fix-rig-result.json");
+    let result = calibrated_rig(
+        &file,
+        &["--fix", "k4", "--fix", "cam0=k1"],
+        "fix-rig-result.json",
+    );
     let held: Vec<(String, Value)> = result["cameras"]
         .as_array()
         .unwrap()
@@ -437,9 +441,11 @@ fn fix_names_are_held_per_camera_model() {
             )
         })
         .collect();
-    for (model, fixed) in &held {
+    for (c, (model, fixed)) in held.iter().enumerate() {
         let expected = if model == "kannala-brandt4" {
             serde_json::json!(["k4"])
+        } else if c == 0 {
+            serde_json::json!(["k1"])
         } else {
             serde_json::json!([])
         };

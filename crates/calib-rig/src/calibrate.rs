@@ -137,6 +137,14 @@ fn start_camera(
         .iter()
         .map(String::as_str)
         .filter(|n| camera_options.model.distortion_names().contains(n))
+        .chain(
+            options
+                .hold_fixed_by_camera
+                .get(c)
+                .into_iter()
+                .flatten()
+                .map(String::as_str),
+        )
         .collect();
     camera_options
         .fix_distortion_by_name(&own)

@@ -21,6 +21,9 @@ pub struct RigOptions {
     /// whose model has them (on top of `camera.fixed_distortion`, which is by position in
     /// `camera.model` and carried to other models by name).
     pub hold_fixed: Vec<String>,
+    /// Per camera (index), more names held in that camera only; each must be one of its
+    /// model's coefficients. Shorter than the camera list is fine.
+    pub hold_fixed_by_camera: Vec<Vec<String>>,
     /// The reference camera: its frame is the rig's, its transform the identity.
     pub reference: usize,
     /// Rotation parameterization of frame poses and camera transforms (default
@@ -46,6 +49,7 @@ impl Default for RigOptions {
             models: Vec::new(),
             given: Vec::new(),
             hold_fixed: Vec::new(),
+            hold_fixed_by_camera: Vec::new(),
             reference: 0,
             rotation: RotationKind::So3,
             outliers: Some(OutlierRejection::default()),
