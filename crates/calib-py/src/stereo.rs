@@ -9,7 +9,7 @@ use calib_single::View;
 use calib_stereo::{
     RigInit, StereoCalibration, StereoObservations, StereoOptions, StereoPair, calibrate_stereo,
 };
-use camera_model::RotationKind;
+use camera_model::{CameraModel, RotationKind};
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -28,7 +28,8 @@ use pyo3::types::{PyList, PyTuple};
 /// coefficients (cv2's ``CALIB_FIX_INTRINSIC``): at ``K``/``D`` when given, else at the camera's
 /// own calibration; ``fix_intrinsics1`` / ``fix_intrinsics2`` hold one. ``model`` / ``model2``,
 /// ``fix`` / ``fix2`` as in :func:`calibrate_camera` (the second camera defaults to the
-/// first's). ``same_focal_length``: both cameras share fx, fy. ``R``, ``T``: a starting rig
+/// first's; without ``fix2``, ``fix`` holds each coefficient in the camera(s) whose model has
+/// it, as ``calib stereo --fix`` does). ``same_focal_length``: both cameras share fx, fy. ``R``, ``T``: a starting rig
 /// (rotation matrix or vector).
 ///
 /// Returns a :class:`StereoCalibration`, which unpacks as
@@ -90,9 +91,30 @@ fn stereo_calibrate(
         None => model1,
     };
     let fix1 = options::fix_names(fix, "fix")?;
-    let fix2 = match fix2.filter(|f| !f.is_none()) {
-        Some(f) => options::fix_names(Some(f), "fix2")?,
-        None => fix1.clone(),
+    let (fix1, fix2) = match fix2.filter(|f| !f.is_none()) {
+        Some(f) => (fix1, options::fix_names(Some(f), "fix2")?),
+        // One list for both, as `calib stereo --fix`: flags for both cameras, each coefficient
+        // in the camera(s) whose model has it.
+        None => {
+            let is_flag = |n: &str| options::FIX_FLAGS.contains(&n) || n == "tangent_dist";
+            let has = |m: CameraModel, n: &str| m.distortion_names().contains(&n);
+            if let Some(unknown) = fix1
+                .iter()
+                .find(|n| !is_flag(n) && !has(model1, n) && !has(model2, n))
+            {
+                return Err(PyValueError::new_err(format!(
+                    "fix: neither model ({model1}, {model2}) has a coefficient '{unknown}', and it is not one of {}",
+                    options::FIX_FLAGS.join(", ")
+                )));
+            }
+            let keep = |m: CameraModel| -> Vec<String> {
+                fix1.iter()
+                    .filter(|n| is_flag(n) || has(m, n))
+                    .cloned()
+                    .collect()
+            };
+            (keep(model1), keep(model2))
+        }
     };
     let mut left = options::camera_options(model1, &fix1, K1, D1, &common, "1")?;
     let mut right = options::camera_options(model2, &fix2, K2, D2, &common, "2")?;

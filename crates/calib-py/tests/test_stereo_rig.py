@@ -51,6 +51,14 @@ def test_stereo_options_and_guesses(calib_cli):
                                    model2="kannala-brandt4", reject_outliers=True)
     assert mixed.models == ("brown-conrady5", "kannala-brandt4")
     assert strip(json.loads(mixed.to_json())) == strip(expected)
+    # One fix list without fix2 holds each name in the camera whose model has it, as the CLI.
+    expected = calib_cli("stereo", DATA / "sourishg1/stereo.json", "--right-model",
+                         "kannala-brandt4", "--fix", "k4")
+    held = calib.stereo_calibrate(obj, left, right, size, fix="k4", model2="kannala-brandt4",
+                                  reject_outliers=True)
+    assert strip(json.loads(held.to_json())) == strip(expected)
+    with pytest.raises(ValueError, match="neither model"):
+        calib.stereo_calibrate(obj, left, right, size, fix="s1", model2="kannala-brandt4")
 
 
 def test_stereo_errors():
