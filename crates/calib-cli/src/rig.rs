@@ -109,6 +109,15 @@ impl RigArgs {
             })
             .collect();
         crate::single::check_fix_names(&hold, &camera_models, "camera's model")?;
+        if self.camera.zero_tangential
+            && camera_models
+                .iter()
+                .all(|m| m.tangential_params().is_empty())
+        {
+            return Err(Failure(
+                "--zero-tangential: no camera's model has tangential coefficients".into(),
+            ));
+        }
         let targets = crate::after::export_targets(&self.output.export)?;
         crate::after::check_export_models(&targets, &camera_models)?;
         let mut hold_by_camera = vec![Vec::new(); n];

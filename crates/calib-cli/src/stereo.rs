@@ -97,6 +97,15 @@ impl StereoArgs {
                 right.model = model;
             }
         }
+        if self.camera.zero_tangential
+            && left.model.tangential_params().is_empty()
+            && right.model.tangential_params().is_empty()
+        {
+            return Err(Failure(format!(
+                "--zero-tangential: neither camera's model ({}, {}) has tangential coefficients",
+                left.model, right.model
+            )));
+        }
         let names = self.camera.fix_names();
         crate::single::check_fix_names(&names, &[left.model, right.model], "camera's model")?;
         crate::single::hold_present(&mut left, &names)?;

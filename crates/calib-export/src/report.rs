@@ -769,21 +769,22 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         .validity(camera.image_size.width, camera.image_size.height);
     let (text, max_shift) = distortion_svg(camera, &validity)?;
     let valid_text = if validity.covers_image(0.0) {
-        format!(
-            "The model is one-to-one over the whole image: it stays valid out to {} from the principal point, the farthest image corner being {:.0} px away (validity coverage {:.2}).",
-            if validity.valid_radius_px.is_finite() {
-                let shown = if validity.valid_radius_px < validity.image_radius_px {
-                    "black dashes where the circle crosses the image"
-                } else {
-                    "outside the image"
-                };
-                format!("{:.0} px ({shown})", validity.valid_radius_px)
+        if validity.valid_radius_px.is_finite() {
+            let shown = if validity.valid_radius_px < validity.image_radius_px {
+                "black dashes where the circle crosses the image: the fold is farther than the image border along every direction, nearer than the farthest corner along some"
             } else {
-                "as far as it was checked".to_string()
-            },
-            validity.image_radius_px,
-            validity.coverage
-        )
+                "outside the image"
+            };
+            format!(
+                "The model is one-to-one over the whole image: its nearest fold is {:.0} px from the principal point ({shown}), the farthest image corner {:.0} px away (validity coverage {:.2}: the fold's distance over the image border's, along the worst direction).",
+                validity.valid_radius_px, validity.image_radius_px, validity.coverage
+            )
+        } else {
+            format!(
+                "The model is one-to-one over the whole image and beyond: no fold was found as far as it was checked (four image radii, or the projection's range), the farthest image corner being {:.0} px from the principal point.",
+                validity.image_radius_px
+            )
+        }
     } else {
         format!(
             "The model stops being one-to-one {:.0} px from the principal point (red dashed circle; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the circle the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",

@@ -373,5 +373,10 @@ fn distortion_plot_shows_the_validity_radius() {
     assert!(validity.valid_radius_px > validity.image_radius_px);
     assert!(page.contains("(outside the image)"), "{page}");
     assert!(!svg.contains("#FF0000"));
+    // Pincushion k1 > 0 never folds: no radius to print (it printed "coverage inf").
+    let (validity, page, _) = report(0.2, "never-folds");
+    assert!(validity.valid_radius_px.is_infinite(), "{validity:?}");
+    assert!(page.contains("no fold was found"), "{page}");
+    assert!(!page.contains("inf)") && !page.contains(" inf"), "{page}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

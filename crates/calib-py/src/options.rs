@@ -68,6 +68,29 @@ pub fn fix_names(fix: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<Str
     Ok(names)
 }
 
+/// Refuses the `tangential` flag when none of `models` has tangential terms (it would do
+/// nothing), as the command line's `--zero-tangential` does.
+pub fn check_tangential(fix: &[String], models: &[CameraModel]) -> PyResult<()> {
+    let asked = fix.iter().any(|n| n == "tangential" || n == "tangent_dist");
+    if asked && models.iter().all(|m| m.tangential_params().is_empty()) {
+        return Err(PyValueError::new_err(format!(
+            "fix: 'tangential' holds p1, p2, which {} {} not have",
+            models
+                .iter()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(" and "),
+            if models.len() > 1 { "do" } else { "does" }
+        )));
+    }
+    Ok(())
+}
+
+/// True for the `fix` names that are flags rather than distortion coefficients.
+pub fn is_fix_flag(name: &str) -> bool {
+    FIX_FLAGS.contains(&name) || name == "tangent_dist"
+}
+
 /// Applies `fix` to `options` (whose model is already set).
 pub fn apply_fix(options: &mut CalibrationOptions, names: &[String], what: &str) -> PyResult<()> {
     let mut distortion: Vec<&str> = Vec::new();
@@ -170,7 +193,14 @@ pub fn camera_options(
 ) -> PyResult<CalibrationOptions> {
     let mut options = CalibrationOptions::default();
     options.model = model;
-    apply_fix(&mut options, fix, &format!("fix{what}"))?;
+    // The arguments' own names: `fix`/`K`/`dist` for one camera, `fix`/`K1`/`D1` and
+    // `fix2`/`K2`/`D2` for a stereo pair.
+    let (fix_arg, dist_arg) = match what {
+        "" => ("fix".to_string(), "dist".to_string()),
+        "1" => ("fix".to_string(), "D1".to_string()),
+        other => (format!("fix{other}"), format!("D{other}")),
+    };
+    apply_fix(&mut options, fix, &fix_arg)?;
     common.apply(&mut options)?;
     // cv2 semantics: a camera matrix passed as `None` means "no guess".
     if let Some(k) = k.filter(|k| !k.is_none()) {
@@ -178,10 +208,10 @@ pub fn camera_options(
     }
     if let Some(d) = dist.filter(|d| !d.is_none()) {
         let names = model.distortion_names();
-        let v = convert::vector(d, &format!("dist{what}"))?;
+        let v = convert::vector(d, &dist_arg)?;
         if v.len() != names.len() {
             return Err(PyValueError::new_err(format!(
-                "dist{what}: model {model} has {} coefficients ({}), got {}",
+                "{dist_arg}: model {model} has {} coefficients ({}), got {}",
                 names.len(),
                 names.join(", "),
                 v.len()

@@ -152,6 +152,16 @@ fn calibrate_rig_py(
         Some(names) => names,
         None => (0..n).map(|i| format!("cam{i}")).collect(),
     };
+    if let Some((c, name)) = names
+        .iter()
+        .enumerate()
+        .find(|(c, name)| names[..*c].contains(name))
+    {
+        return Err(PyValueError::new_err(format!(
+            "names: cameras {} and {c} are both named '{name}'",
+            names.iter().position(|n| n == name).unwrap_or(0)
+        )));
+    }
     let per_camera_models: Vec<Option<CameraModel>> = match models.filter(|m| !m.is_none()) {
         None => vec![None; n],
         Some(m) if m.is_instance_of::<PyString>() => {
@@ -244,21 +254,31 @@ fn calibrate_rig_py(
         frames.push(RigFrame { observations });
     }
 
-    // `fix` names coefficients by the model's order, so distortion names need one model for
-    // every camera (flags such as "principal_point" apply to any mix).
+    // Flags ("principal_point", ...) apply to every camera, coefficient names to every camera
+    // whose model has them, as `calib rig --fix`.
     let first = per_camera_models[0].unwrap_or_default();
-    let one_model = per_camera_models
-        .iter()
-        .all(|m| m.unwrap_or_default() == first);
     let mut camera = options::camera_options(first, &[], None, None, &common, "")?;
     let fix = options::fix_names(fix, "fix")?;
-    options::apply_fix(&mut camera, &fix, "fix")?;
-    if !one_model && !camera.fixed_distortion.is_empty() {
-        return Err(PyValueError::new_err(
-            "fix: coefficient names need the same model for every camera (the flags principal_point, focal_length, aspect_ratio and tangential work with any mix)",
-        ));
+    let models: Vec<CameraModel> = per_camera_models
+        .iter()
+        .map(|m| m.unwrap_or_default())
+        .collect();
+    options::check_tangential(&fix, &models)?;
+    let (flags, coefficients): (Vec<String>, Vec<String>) =
+        fix.into_iter().partition(|n| options::is_fix_flag(n));
+    options::apply_fix(&mut camera, &flags, "fix")?;
+    if let Some(unknown) = coefficients.iter().find(|n| {
+        !models
+            .iter()
+            .any(|m| m.distortion_names().contains(&n.as_str()))
+    }) {
+        return Err(PyValueError::new_err(format!(
+            "fix: no camera's model has a coefficient '{unknown}', and it is not one of {}",
+            options::FIX_FLAGS.join(", ")
+        )));
     }
     let mut opts = RigOptions::default();
+    opts.hold_fixed = coefficients;
     opts.models = per_camera_models.clone();
     camera.skip_bad_views = skip_bad_views;
     opts.solver = camera.solver.clone();

@@ -117,6 +117,7 @@ fn calibrate_camera(
     };
     let model = options::model(model, "model")?;
     let fix = options::fix_names(fix, "fix")?;
+    options::check_tangential(&fix, &[model])?;
     let mut opts = options::camera_options(model, &fix, K, dist, &common, "")?;
     opts.skip_bad_views = skip_bad_views;
     opts.drop_duplicate_views = drop_duplicate_views;

@@ -96,7 +96,7 @@ fn stereo_calibrate(
         // One list for both, as `calib stereo --fix`: flags for both cameras, each coefficient
         // in the camera(s) whose model has it.
         None => {
-            let is_flag = |n: &str| options::FIX_FLAGS.contains(&n) || n == "tangent_dist";
+            let is_flag = options::is_fix_flag;
             let has = |m: CameraModel, n: &str| m.distortion_names().contains(&n);
             if let Some(unknown) = fix1
                 .iter()
@@ -116,6 +116,7 @@ fn stereo_calibrate(
             (keep(model1), keep(model2))
         }
     };
+    options::check_tangential(&[fix1.clone(), fix2.clone()].concat(), &[model1, model2])?;
     let mut left = options::camera_options(model1, &fix1, K1, D1, &common, "1")?;
     let mut right = options::camera_options(model2, &fix2, K2, D2, &common, "2")?;
     // cv2's CALIB_FIX_INTRINSIC with a given camera matrix holds exactly that camera (and the

@@ -139,6 +139,8 @@ def test_calibration_errors_carry_the_rust_message():
 
 def test_bad_arguments_name_the_argument_and_index():
     obj, img, size = single_arrays("sourishg1/left.json")
+    with pytest.raises(ValueError, match="'tangential' holds p1, p2, which kannala-brandt4 does not have"):
+        calib.calibrate_camera(obj, img, size, model="kannala-brandt4", fix="tangential")
     bad = img[:6] + [img[6][:, :1]] + img[7:]
     with pytest.raises(ValueError, match=r"image_points\[6\]: expected an array of shape \(N, 2\)"):
         calib.calibrate_camera(obj, bad, size)

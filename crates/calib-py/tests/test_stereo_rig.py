@@ -153,3 +153,25 @@ def test_rig_errors():
         calib.calibrate_rig([size, size], obj, frames, models=["brown-conrady4"])
     with pytest.raises(ValueError, match=r"image_sizes\[1\]"):
         calib.calibrate_rig([size, (0, 3)], obj, frames)
+    with pytest.raises(ValueError, match="both named 'a'"):
+        calib.calibrate_rig([size, size], obj, frames, names=["a", "a"])
+    with pytest.raises(ValueError, match="'tangential' holds p1, p2"):
+        calib.calibrate_rig([size, size], obj, frames, models="kannala-brandt4",
+                            fix="tangential")
+
+
+def test_rig_fix_names_per_camera_model(calib_cli, tmp_path):
+    # As calib rig --fix: each coefficient in every camera whose model has it.
+    path = tmp_path / "rig.json"
+    path.write_text(json.dumps(rig_file("sourishg1/stereo.json")))
+    expected = calib_cli("rig", path, "--no-outlier-rejection", "--model",
+                         "right=kannala-brandt4", "--fix", "k4")
+    obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
+    result = calib.calibrate_rig([size, size], obj, [{0: l, 1: r} for l, r in zip(left, right)],
+                                 names=["left", "right"],
+                                 models=["brown-conrady4", "kannala-brandt4"], fix="k4")
+    assert strip(json.loads(result.to_json())) == strip(expected)
+    assert expected["cameras"][1]["fixed_parameters"] == ["k4"]
+    with pytest.raises(ValueError, match="no camera's model has a coefficient 's1'"):
+        calib.calibrate_rig([size, size], obj, [{0: l, 1: r} for l, r in zip(left, right)],
+                            models=["brown-conrady4", "kannala-brandt4"], fix="s1")

@@ -50,6 +50,18 @@ fn check(observations: &RigObservations, options: &RigOptions) -> Result<(), Rig
             options.reference
         )));
     }
+    // Names are how results, warnings, exports and --model NAME=... refer to cameras.
+    for (c, camera) in observations.cameras.iter().enumerate() {
+        if let Some(first) = observations.cameras[..c]
+            .iter()
+            .position(|other| other.name == camera.name)
+        {
+            return Err(RigError::InvalidOption(format!(
+                "cameras {first} and {c} are both named '{}': give every camera its own name",
+                camera.name
+            )));
+        }
+    }
     for c in &observations.cameras {
         if c.image_size.width == 0 || c.image_size.height == 0 {
             return Err(RigError::InvalidOption(format!(

@@ -225,3 +225,15 @@ fn a_view_with_reversed_corners_is_named() {
     let frame = result.frames.iter().find(|f| f.index == index).unwrap();
     assert!(frame.views.iter().all(|v| v.camera != 1));
 }
+
+#[test]
+fn two_cameras_with_one_name_are_refused() {
+    let mut data = rig(3, 20);
+    data.observations.cameras[2].name = "cam0".into();
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        message.contains("cameras 0 and 2 are both named 'cam0'"),
+        "{message}"
+    );
+}
