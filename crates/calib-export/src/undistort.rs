@@ -106,15 +106,29 @@ pub fn undistort_rectangles(
     rectification: Option<&Matrix3<f64>>,
     new_matrix: Option<&Matrix3<f64>>,
 ) -> Result<(Rect, Rect), ExportError> {
+    rectangles(camera, image_size, rectification, new_matrix, false)
+}
+
+/// [`undistort_rectangles`]; with `every_point`, a grid point that cannot be undistorted is an
+/// error instead of being left out.
+fn rectangles(
+    camera: &AnyCamera,
+    image_size: ImageSize,
+    rectification: Option<&Matrix3<f64>>,
+    new_matrix: Option<&Matrix3<f64>>,
+    every_point: bool,
+) -> Result<(Rect, Rect), ExportError> {
     let (w, h) = (image_size.width as f64, image_size.height as f64);
     let n = (GRID - 1) as f64;
     let (mut ix0, mut ix1, mut iy0, mut iy1) = (f64::MIN, f64::MAX, f64::MIN, f64::MAX);
     let (mut ox0, mut ox1, mut oy0, mut oy1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     let mut count = 0;
+    let mut first_lost = None;
     for j in 0..GRID {
         for i in 0..GRID {
             let pixel = Vector2::new(i as f64 * (w - 1.0) / n, j as f64 * (h - 1.0) / n);
             let Ok(p) = undistort_point(camera, &pixel, rectification, new_matrix) else {
+                first_lost.get_or_insert(pixel);
                 continue;
             };
             count += 1;
@@ -156,6 +170,23 @@ pub fn undistort_rectangles(
             && r.width.is_finite()
             && r.height.is_finite()
     };
+    if let Some(first) = first_lost.filter(|_| every_point) {
+        // A fisheye seeing more than 90 degrees off its axis there: without those points the
+        // rectangles lose their border, and the camera matrix came out degenerate (fx 1.3
+        // against fy 2.6 for a 200-degree lens) instead of failing.
+        return Err(ExportError::invalid(
+            "undistortion",
+            format!(
+                "{} of {} grid points over the {}x{} image (the first at pixel ({}, {})) have no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image",
+                GRID * GRID - count,
+                GRID * GRID,
+                image_size.width,
+                image_size.height,
+                first.x,
+                first.y
+            ),
+        ));
+    }
     if count < 4 || !usable(&inner) || !usable(&outer) {
         return Err(ExportError::invalid(
             "undistortion",
@@ -195,35 +226,8 @@ pub fn optimal_new_camera_matrix(
     alpha: f64,
 ) -> Result<(Matrix3<f64>, [u32; 4]), ExportError> {
     check_alpha(alpha)?;
-    // A grid point that cannot be undistorted (a fisheye seeing more than 90 degrees off its
-    // axis there) leaves the rectangles without their border: the matrix came out degenerate
-    // (fx 1.3 against fy 2.6 for a 200-degree lens) instead of failing.
     let (w, h) = (image_size.width as f64, image_size.height as f64);
-    let n = (GRID - 1) as f64;
-    let grid = (0..GRID * GRID).map(|k| {
-        Vector2::new(
-            (k % GRID) as f64 * (w - 1.0) / n,
-            (k / GRID) as f64 * (h - 1.0) / n,
-        )
-    });
-    let lost: Vec<Vector2<f64>> = grid
-        .filter(|p| undistort_point(camera, p, None, None).is_err())
-        .collect();
-    if let Some(first) = lost.first() {
-        return Err(ExportError::invalid(
-            "undistortion",
-            format!(
-                "{} of {} grid points over the {}x{} image (the first at pixel ({}, {})) have no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image",
-                lost.len(),
-                GRID * GRID,
-                image_size.width,
-                image_size.height,
-                first.x,
-                first.y
-            ),
-        ));
-    }
-    let (inner, outer) = undistort_rectangles(camera, image_size, None, None)?;
+    let (inner, outer) = rectangles(camera, image_size, None, None, true)?;
     let fx0 = (w - 1.0) / inner.width;
     let fy0 = (h - 1.0) / inner.height;
     let cx0 = -fx0 * inner.x;
