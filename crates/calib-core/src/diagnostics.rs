@@ -381,6 +381,7 @@ mod tests {
             valid_radius_px: 376.0,
             image_radius_px: 372.0,
             coverage,
+            limit_px: [None; camera_model::validity::VALIDITY_RAYS],
         };
         let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67));
         assert!(

@@ -771,7 +771,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
     let valid_text = if validity.covers_image(0.0) {
         if validity.valid_radius_px.is_finite() {
             let shown = if validity.valid_radius_px < validity.image_radius_px {
-                "black dashes where the circle crosses the image: the fold is farther than the image border along every direction, nearer than the farthest corner along some"
+                "black dashes where the fold crosses the image: the fold is farther than the image border along every direction, nearer than the farthest corner along some"
             } else {
                 "outside the image"
             };
@@ -787,7 +787,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         }
     } else {
         format!(
-            "The model stops being one-to-one {:.0} px from the principal point (red dashed circle; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the circle the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
+            "The model stops being one-to-one {:.0} px from the principal point (red dashes mark the fold; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the dashes the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
             validity.valid_radius_px, validity.image_radius_px, validity.coverage
         )
     };
@@ -1067,27 +1067,23 @@ fn distortion_svg(
                         ))
                     }),
             )?;
-            // The validity radius: dashes of the circle inside the image.
-            let radius = validity.valid_radius_px;
-            if radius.is_finite() && radius > 0.0 {
-                let style = if validity.covers_image(0.0) {
-                    BLACK.stroke_width(2)
-                } else {
-                    RED.stroke_width(3)
-                };
-                let (w, h) = (size.width as f64, size.height as f64);
-                let inside =
-                    |x: f64, y: f64| (-0.5..=w - 0.5).contains(&x) && (-0.5..=h - 0.5).contains(&y);
-                let steps = 240;
-                c.draw_series((0..steps).step_by(2).filter_map(|i| {
-                    let a0 = std::f64::consts::TAU * i as f64 / steps as f64;
-                    let a1 = std::f64::consts::TAU * (i + 1) as f64 / steps as f64;
-                    let p0 = (k.cx + radius * a0.cos(), k.cy + radius * a0.sin());
-                    let p1 = (k.cx + radius * a1.cos(), k.cy + radius * a1.sin());
-                    (inside(p0.0, p0.1) && inside(p1.0, p1.1))
-                        .then(|| PathElement::new(vec![p0, p1], style))
-                }))?;
-            }
+            // The fold, where the walk found it (an ellipse when fx != fy): dashes inside the
+            // image, every other segment between neighbouring rays.
+            let style = if validity.covers_image(0.0) {
+                BLACK.stroke_width(2)
+            } else {
+                RED.stroke_width(3)
+            };
+            let (w, h) = (size.width as f64, size.height as f64);
+            let inside = |p: &Vector2<f64>| {
+                (-0.5..=w - 0.5).contains(&p.x) && (-0.5..=h - 0.5).contains(&p.y)
+            };
+            let rays = validity.limit_px.len();
+            c.draw_series((0..rays).step_by(2).filter_map(|i| {
+                let (p0, p1) = (validity.limit_px[i]?, validity.limit_px[(i + 1) % rays]?);
+                (inside(&p0) && inside(&p1))
+                    .then(|| PathElement::new(vec![(p0.x, p0.y), (p1.x, p1.y)], style))
+            }))?;
             Ok(())
         },
         heat_size(size),

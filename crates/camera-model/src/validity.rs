@@ -17,7 +17,8 @@ use crate::{AnyCamera, Camera, LensDistortion, Projection};
 use nalgebra::Vector2;
 
 /// Rays walked from the principal point.
-const RAYS: usize = 64;
+pub const VALIDITY_RAYS: usize = 64;
+const RAYS: usize = VALIDITY_RAYS;
 /// Steps along each ray.
 const STEPS: usize = 512;
 /// Largest pinhole normalized radius walked (`tan 87 degrees`): beyond, the pinhole projection
@@ -36,6 +37,12 @@ pub struct Validity {
     /// Smallest ratio, over the rays, of the valid distance to the image border's distance along
     /// the same ray: at least 1 when the model is valid over the whole image.
     pub coverage: f64,
+    /// Where each of the [`VALIDITY_RAYS`] rays (ray `i` leaves the principal point at angle
+    /// `2 pi i / VALIDITY_RAYS` in normalized coordinates, from +x towards +y) stops being valid:
+    /// the pixel (OpenCV's convention, first pixel centre at 0,0) of its last valid point, `None`
+    /// when the ray stays valid as far as it was walked. Joined in order they trace the fold,
+    /// which is an ellipse rather than a circle in pixels when `fx != fy`.
+    pub limit_px: [Option<Vector2<f64>>; VALIDITY_RAYS],
 }
 
 impl Validity {
@@ -87,21 +94,21 @@ fn typed_validity<D: LensDistortion, P: Projection>(
     // A denominator root found exactly: sampling alone can step over a thin negative band.
     let pole = typed.distortion.pole_radius().unwrap_or(f64::INFINITY);
     let (mut valid_radius_px, mut coverage) = (f64::INFINITY, f64::INFINITY);
-    for ray in 0..RAYS {
+    let mut limit_px = [None; RAYS];
+    for (ray, limit_pixel) in limit_px.iter_mut().enumerate() {
         let phi = 2.0 * std::f64::consts::PI * ray as f64 / RAYS as f64;
         let direction = Vector2::new(phi.cos(), phi.sin());
-        let valid_at = |rho: f64| -> Option<f64> {
+        // The pixel of the point `rho` along the ray, if the model is valid there.
+        let valid_at = |rho: f64| -> Option<Vector2<f64>> {
             let n = direction * rho;
             let (d, jacobian, _) = typed.distortion.distort_with_jacobians(&n);
             let positive = typed.distortion.denominator(&n).is_none_or(|q| q > 0.0);
-            (jacobian.determinant() > 0.0 && positive && d.iter().all(|v| v.is_finite())).then(
-                || {
-                    let pixel = k.to_pixel(&d);
-                    (pixel.x - k.cx).hypot(pixel.y - k.cy)
-                },
-            )
+            (jacobian.determinant() > 0.0 && positive && d.iter().all(|v| v.is_finite()))
+                .then(|| k.to_pixel(&d))
         };
+        let from_centre = |pixel: Vector2<f64>| (pixel.x - k.cx).hypot(pixel.y - k.cy);
         let mut reached = 0.0f64;
+        let mut last_valid = Vector2::new(k.cx, k.cy);
         let mut failed = false;
         let mut last = 0.0;
         for step in 1..=STEPS {
@@ -109,22 +116,27 @@ fn typed_validity<D: LensDistortion, P: Projection>(
             if rho >= pole {
                 // The ray ends just before the pole: between close roots of numerator and
                 // denominator the band of directions near it maps onto every radius.
-                if let Some(radius) = valid_at(pole * (1.0 - 1e-4)) {
-                    reached = reached.max(radius);
+                if let Some(pixel) = valid_at(pole * (1.0 - 1e-4)) {
+                    reached = reached.max(from_centre(pixel));
+                    last_valid = pixel;
                 }
                 failed = true;
                 break;
             }
             match valid_at(rho) {
-                Some(radius) => reached = reached.max(radius),
+                Some(pixel) => {
+                    reached = reached.max(from_centre(pixel));
+                    last_valid = pixel;
+                }
                 None => {
                     // Locate the limit between the last valid step and this one.
                     let (mut lo, mut hi) = (last, rho);
                     for _ in 0..40 {
                         let mid = 0.5 * (lo + hi);
                         match valid_at(mid) {
-                            Some(radius) => {
-                                reached = reached.max(radius);
+                            Some(pixel) => {
+                                reached = reached.max(from_centre(pixel));
+                                last_valid = pixel;
                                 lo = mid;
                             }
                             None => hi = mid,
@@ -140,6 +152,7 @@ fn typed_validity<D: LensDistortion, P: Projection>(
             }
         }
         let limit = if failed { reached } else { f64::INFINITY };
+        *limit_pixel = failed.then_some(last_valid);
         valid_radius_px = valid_radius_px.min(limit);
         // The border along the ray in pixels: the distorted ray bends, so use the direction in
         // which it leaves the principal point.
@@ -150,6 +163,7 @@ fn typed_validity<D: LensDistortion, P: Projection>(
         valid_radius_px,
         image_radius_px,
         coverage,
+        limit_px,
     }
 }
 
@@ -206,6 +220,38 @@ mod tests {
         )
         .unwrap();
         assert!(small.validity(320, 240).covers_image(0.05));
+    }
+
+    /// The same fold with `fy = 2 fx`: in pixels it is an ellipse with semi-axes `fx d` and
+    /// `fy d` (d = 0.544, the distorted normalized radius of the fold), and every ray's limit lies
+    /// on it; the smallest radius is the one along x.
+    #[test]
+    fn the_fold_is_traced_per_ray_as_an_ellipse_when_fx_differs_from_fy() {
+        let (fx, fy) = (300.0, 600.0);
+        let c = AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(fx, fy, 639.5, 479.5),
+            vec![-0.5, 0.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let v = c.validity(1280, 960);
+        let d = (1.0 / 1.5f64).sqrt() * (1.0 - 0.5 / 1.5);
+        assert!((v.valid_radius_px - fx * d).abs() < 1.0, "{v:?}");
+        for (ray, limit) in v.limit_px.iter().enumerate() {
+            let p = limit.unwrap_or_else(|| panic!("ray {ray} found no fold"));
+            let (x, y) = ((p.x - 639.5) / fx, (p.y - 479.5) / fy);
+            assert!((x.hypot(y) - d).abs() < 1e-3, "ray {ray}: {p:?}");
+            let phi = std::f64::consts::TAU * ray as f64 / v.limit_px.len() as f64;
+            assert!((y.atan2(x) - phi).sin().abs() < 1e-9, "ray {ray} direction");
+        }
+        let never = camera(CameraModel::BrownConrady4, vec![0.2, 0.0, 0.0, 0.0]);
+        assert!(
+            never
+                .validity(640, 480)
+                .limit_px
+                .iter()
+                .all(Option::is_none)
+        );
     }
 
     /// A rational model `r (1 - 3 r^2) / (1 - r^2)` (k1 = -3, k4 = -1): the numerator turns the
