@@ -43,8 +43,8 @@ pub struct CameraArgs {
     /// Hold these distortion coefficients at their initial value, e.g. --fix k2 or --fix k1,k2
     /// (repeatable). calib stereo, calib rig and --compare-models hold each name in every camera
     /// (model) that has it; calib stereo and calib rig also take CAMERA=NAMES for one camera
-    /// (--fix right=k3,k4; stereo cameras are left and right).
-    #[arg(long, value_name = "NAMES")]
+    /// (--fix right=k3,k4; stereo cameras are left and right). Names in any case (K3 = k3).
+    #[arg(long, value_name = "NAMES", value_parser = coefficient_names_lowercase)]
     pub fix: Vec<String>,
     /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
     #[arg(long, value_name = "FX,FY,CX,CY")]
@@ -151,6 +151,15 @@ pub fn split_named(values: &[String]) -> (Vec<&str>, Vec<(&str, &str)>) {
         }
     }
     (plain, named)
+}
+
+/// `--fix` value parser: coefficient names in lower case (OpenCV users write `K3`), the camera
+/// name of `CAMERA=NAMES` as given (camera names are case-sensitive).
+fn coefficient_names_lowercase(value: &str) -> Result<String, String> {
+    Ok(match value.split_once('=') {
+        Some((camera, names)) => format!("{camera}={}", names.to_ascii_lowercase()),
+        None => value.to_ascii_lowercase(),
+    })
 }
 
 impl CameraArgs {

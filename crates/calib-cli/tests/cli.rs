@@ -956,7 +956,8 @@ fn stereo_holds_fixed_terms_per_camera_and_the_given_camera() {
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     assert_eq!(json["left"]["fixed_parameters"], serde_json::json!([]));
     assert_eq!(json["right"]["fixed_parameters"], serde_json::json!(["k4"]));
-    // A name both models have, held in one camera only; a camera or name that does not exist.
+    // A name both models have, held in one camera only (names in OpenCV's upper case too); a
+    // camera or name that does not exist.
     let run = run_ok(calib().args([
         "stereo",
         &stereo,
@@ -966,7 +967,7 @@ fn stereo_holds_fixed_terms_per_camera_and_the_given_camera() {
         "--right-model",
         "kannala-brandt4",
         "--fix",
-        "right=k3,k4",
+        "right=K3,k4",
         "-o",
         "-",
     ]));

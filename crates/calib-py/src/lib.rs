@@ -77,6 +77,30 @@ pub(crate) fn warnings_out<'py>(
     pyo3::types::PyList::new(py, warnings.iter().map(CalibrationWarning::from))
 }
 
+/// Where a camera's lens model is one-to-one (`AnyCamera::validity`, docs/camera-model.md), as
+/// the dict the results' `validity` attribute holds: `valid_radius_px` (pixels from the principal
+/// point to the nearest fold; `None` when no fold was found), `image_radius_px` (to the farthest
+/// image corner), `coverage` (the fold's distance over the image border's along the worst
+/// direction; `None` with no fold) and `covers_image` (valid over the image with the 5% margin the
+/// `model-invalid` warning checks).
+pub(crate) fn validity_out<'py>(
+    py: Python<'py>,
+    camera: &camera_model::AnyCamera,
+    size: calib_core::ImageSize,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let v = camera.validity(size.width, size.height);
+    let finite = |x: f64| x.is_finite().then_some(x);
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("valid_radius_px", finite(v.valid_radius_px))?;
+    d.set_item("image_radius_px", v.image_radius_px)?;
+    d.set_item("coverage", finite(v.coverage))?;
+    d.set_item(
+        "covers_image",
+        v.covers_image(calib_core::diagnostics::VALIDITY_MARGIN),
+    )?;
+    Ok(d)
+}
+
 /// Camera calibration (single cameras, stereo pairs, rigs of N cameras) and chessboard detection,
 /// with NumPy arrays shaped like OpenCV's. See `help(calib)` and docs/python.md.
 #[pymodule]

@@ -109,6 +109,16 @@ pub fn apply_fix(options: &mut CalibrationOptions, names: &[String], what: &str)
     })
 }
 
+/// A count given as a Python int, within `least..=most`.
+pub fn count(value: i64, what: &str, least: usize, most: usize) -> PyResult<usize> {
+    usize::try_from(value)
+        .ok()
+        .filter(|v| (least..=most).contains(v))
+        .ok_or_else(|| {
+            PyValueError::new_err(format!("{what}: expected {least} to {most}, got {value}"))
+        })
+}
+
 /// The solver settings common to every calibration function.
 pub struct Common {
     pub reject_outliers: bool,
@@ -116,8 +126,10 @@ pub struct Common {
     pub loss: Option<String>,
     pub loss_scale: f64,
     pub rotation: Option<String>,
-    pub max_iterations: usize,
-    pub threads: usize,
+    /// As given (a Python int; checked in [`Common::apply`], so a negative value is a
+    /// `ValueError` naming the argument rather than pyo3's `OverflowError`).
+    pub max_iterations: i64,
+    pub threads: i64,
 }
 
 impl Common {
@@ -170,14 +182,8 @@ impl Common {
         options.outliers = self.outliers()?;
         options.loss = self.loss()?;
         options.rotation = self.rotation(RotationKind::EulerXyz)?;
-        if self.max_iterations == 0 || self.max_iterations > 1_000_000 {
-            return Err(PyValueError::new_err(format!(
-                "max_iterations: expected 1 to 1000000, got {}",
-                self.max_iterations
-            )));
-        }
-        options.solver.max_iterations = self.max_iterations;
-        options.solver.num_threads = self.threads;
+        options.solver.max_iterations = count(self.max_iterations, "max_iterations", 1, 1_000_000)?;
+        options.solver.num_threads = count(self.threads, "threads (0: every core)", 0, 4096)?;
         Ok(())
     }
 }

@@ -114,15 +114,15 @@ fn calibrate_rig_py(
     reference: Option<&Bound<'_, PyAny>>,
     known: Option<&Bound<'_, PyDict>>,
     fix: Option<&Bound<'_, PyAny>>,
-    min_views: usize,
+    min_views: i64,
     reject_outliers: bool,
     outlier_threshold: f64,
     loss: Option<String>,
     loss_scale: f64,
     rotation: Option<String>,
     skip_bad_views: bool,
-    max_iterations: usize,
-    threads: usize,
+    max_iterations: i64,
+    threads: i64,
 ) -> PyResult<RigCalibrationResult> {
     let common = Common {
         reject_outliers,
@@ -285,7 +285,7 @@ fn calibrate_rig_py(
     opts.rotation = common.rotation(RotationKind::So3)?;
     opts.outliers = camera.outliers;
     opts.loss = camera.loss;
-    opts.min_views = min_views.max(1);
+    opts.min_views = crate::options::count(min_views, "min_views", 1, 1_000_000)?;
     opts.camera = camera;
     if let Some(r) = reference.filter(|r| !r.is_none()) {
         opts.reference = camera_key(r, &names, "reference")?;
@@ -372,6 +372,17 @@ impl RigCalibrationResult {
             .cameras
             .iter()
             .map(|c| c.estimate.camera.model.name())
+            .collect()
+    }
+
+    /// Where each camera's lens model is one-to-one: one dict per camera, as
+    /// ``CameraCalibration.validity``.
+    #[getter]
+    fn validity<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, pyo3::types::PyDict>>> {
+        self.inner
+            .cameras
+            .iter()
+            .map(|c| crate::validity_out(py, &c.estimate.camera, c.estimate.image_size))
             .collect()
     }
 

@@ -102,8 +102,8 @@ fn calibrate_camera(
     skip_bad_views: bool,
     drop_duplicate_views: bool,
     compute_std: bool,
-    max_iterations: usize,
-    threads: usize,
+    max_iterations: i64,
+    threads: i64,
     names: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<CameraCalibration> {
     let common = Common {
@@ -300,6 +300,14 @@ impl CameraCalibration {
     #[getter]
     fn image_size(&self) -> (u32, u32) {
         (self.inner.image_size.width, self.inner.image_size.height)
+    }
+
+    /// Where the lens model is one-to-one: a dict with ``valid_radius_px`` (pixels from the
+    /// principal point to the nearest fold, ``None`` if none was found), ``image_radius_px``,
+    /// ``coverage`` and ``covers_image`` (docs/python.md; the ``model-invalid`` warning).
+    #[getter]
+    fn validity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        crate::validity_out(py, &self.inner.camera, self.inner.image_size)
     }
 
     /// Rotation parameterization of the poses during the optimization (of ``pose_std``).

@@ -72,8 +72,8 @@ fn stereo_calibrate(
     loss_scale: f64,
     rotation: Option<String>,
     skip_bad_pairs: bool,
-    max_iterations: usize,
-    threads: usize,
+    max_iterations: i64,
+    threads: i64,
     names: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<StereoCalibrationResult> {
     let common = Common {
@@ -279,6 +279,23 @@ impl StereoCalibrationResult {
     #[getter(D2)]
     fn d2<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         row_out(py, &self.inner.right.camera.distortion)
+    }
+
+    /// Where each camera's lens model is one-to-one: (left, right) dicts as
+    /// ``CameraCalibration.validity``.
+    #[getter]
+    fn validity<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, pyo3::types::PyDict>,
+        Bound<'py, pyo3::types::PyDict>,
+    )> {
+        let (l, r) = (&self.inner.left, &self.inner.right);
+        Ok((
+            crate::validity_out(py, &l.camera, l.image_size)?,
+            crate::validity_out(py, &r.camera, r.image_size)?,
+        ))
     }
 
     /// Rotation from the first camera to the second: ``X2 = R X1 + T``, (3, 3).

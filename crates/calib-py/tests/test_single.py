@@ -228,3 +228,30 @@ def test_duplicate_views_are_kept_unless_asked():
 
 def test_bundled_files_exist():
     assert load("sourishg1/left.json")["image_size"] == [640, 360]
+
+
+def test_validity_is_the_result_files_and_backs_the_warning():
+    obj, img, size = single_arrays("sourishg1/left.json")
+    plain = calib.calibrate_camera(obj, img, size)
+    assert plain.validity["covers_image"] and plain.validity["coverage"] > 1.05
+    assert not any(w.code == "model-invalid" for w in plain.warnings)
+    # rational8 on these views folds inside the image (docs/after-calibration.md: 347 px).
+    wide = calib.calibrate_camera(obj, img, size, model="rational8")
+    v = wide.validity
+    stored = json.loads(wide.to_json())["camera"]["validity"]
+    assert v["valid_radius_px"] == stored["valid_radius_px"]
+    assert v["image_radius_px"] == stored["image_radius_px"]
+    assert not v["covers_image"] and v["valid_radius_px"] < v["image_radius_px"]
+    assert any(w.code == "model-invalid" for w in wide.warnings)
+
+
+def test_coefficient_names_in_any_case_and_counts_out_of_range():
+    obj, img, size = single_arrays("sourishg1/left.json")
+    upper = calib.calibrate_camera(obj, img, size, model="brown-conrady5", fix="K3")
+    lower = calib.calibrate_camera(obj, img, size, model="brown-conrady5", fix="k3")
+    assert upper.fixed_parameters == lower.fixed_parameters == ["k3"]
+    assert np.array_equal(upper.K, lower.K)
+    for kwargs, name in [({"max_iterations": -1}, "max_iterations"), ({"max_iterations": 0}, "max_iterations"),
+                         ({"threads": -2}, "threads")]:
+        with pytest.raises(ValueError, match=name):
+            calib.calibrate_camera(obj, img, size, **kwargs)

@@ -36,6 +36,10 @@ def test_stereo_bit_for_bit_with_the_calib_command(calib_cli, name):
     assert result.per_view_rms.shape == (len(obj), 2)
     assert len(result.rvecs) == len(obj) and result.rvecs[0].shape == (3, 1)
     assert result.baseline == pytest.approx(np.linalg.norm(T))
+    stored = json.loads(result.to_json())
+    for v, camera in zip(result.validity, ["left", "right"]):
+        assert v["valid_radius_px"] == stored[camera]["validity"]["valid_radius_px"]
+        assert v["covers_image"] == stored[camera]["validity"]["covers_image"]
 
 
 def test_stereo_options_and_guesses(calib_cli):
@@ -113,6 +117,9 @@ def test_rig_bit_for_bit_with_the_calib_command(calib_cli, tmp_path):
     assert result.frame_indices == list(range(len(obj)))
     assert set(result.per_view_rms[0]) == {0, 1}
     assert result.tree_parent == [None, 0]
+    assert [v["valid_radius_px"] for v in result.validity] == [
+        c["validity"]["valid_radius_px"] for c in expected["cameras"]
+    ]
     assert result.std[1].shape == (8,) and result.transform_std[0].tolist() == [0.0] * 6
 
 

@@ -106,6 +106,10 @@ class CameraCalibration:
     @property
     def rotation(self) -> str: ...
     @property
+    def validity(self) -> dict[str, Any]:
+        """Where the lens model is one-to-one: valid_radius_px (None: no fold found),
+        image_radius_px, coverage (None: no fold found), covers_image."""
+    @property
     def warnings(self) -> list[CalibrationWarning]: ...
     @property
     def report(self) -> dict[str, Any]:
@@ -174,6 +178,9 @@ class StereoCalibration:
     @property
     def models(self) -> tuple[str, str]: ...
     @property
+    def validity(self) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(left, right), each as CameraCalibration.validity."""
+    @property
     def num_rejected(self) -> int: ...
     @property
     def warnings(self) -> list[CalibrationWarning]: ...
@@ -198,6 +205,9 @@ class RigCalibration:
     def names(self) -> list[str]: ...
     @property
     def models(self) -> list[str]: ...
+    @property
+    def validity(self) -> list[dict[str, Any]]:
+        """One dict per camera, as CameraCalibration.validity."""
     @property
     def reference(self) -> int: ...
     @property
