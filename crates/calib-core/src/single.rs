@@ -193,13 +193,30 @@ pub fn prepare_camera(
         });
     }
     check_options(options)?;
+    // The start (homographies, closed form, poses) sees a board whose origin lies far outside
+    // it re-centred, as the solver does (`JointProblem::board_normalization`): 20 m away from a
+    // 0.2 m board, the homography's last column dwarfs the others and the closed form lost the
+    // focal length.
+    let offset = board_offset(views);
+    let centred: Vec<View> = match offset {
+        Some(c) => views
+            .iter()
+            .map(|(_, v)| View {
+                name: v.name.clone(),
+                object_points: v.object_points.iter().map(|p| p - c.coords).collect(),
+                image_points: v.image_points.clone(),
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     let mut used = Vec::new();
     let mut homographies = Vec::new();
     let mut inliers = Vec::new();
     let mut skipped = Vec::new();
-    for &(index, view) in views {
-        let result = check_view(index, view)
-            .and_then(|()| check_inside_image(index, view, image_size))
+    for (k, &(index, original)) in views.iter().enumerate() {
+        let view = centred.get(k).unwrap_or(original);
+        let result = check_view(index, original)
+            .and_then(|()| check_inside_image(index, original, image_size))
             .and_then(|()| {
                 let object: Vec<Point2<f64>> = view
                     .object_points
@@ -395,8 +412,19 @@ pub fn prepare_camera(
         {
             return Err(CalibrationError::PointBehindCamera { view: index, point });
         }
-        initial_poses.push(pose);
+        // Back to the user's board origin: X_cam = R (X - c) + t' = R X + (t' - R c).
+        initial_poses.push(match offset {
+            Some(c) => Pose::new(pose.rotation, pose.translation - pose.rotation * c.coords),
+            None => pose,
+        });
     }
+    // The problem keeps the user's board points (the solver re-centres on its own).
+    let original = |index: usize| {
+        views.iter().find(|(i, _)| *i == index).map_or_else(
+            || unreachable!("a used view comes from `views`"),
+            |(_, v)| *v,
+        )
+    };
     let fixed = fixed_camera_components(options, used.len());
     let mut prepared = PreparedCamera {
         image_size,
@@ -407,12 +435,12 @@ pub fn prepare_camera(
             .iter()
             .zip(inliers)
             .enumerate()
-            .map(|(k, ((_, view), keep))| {
+            .map(|(k, ((index, view), keep))| {
                 let mut o = ObservationSpec::new(
                     0,
                     k,
                     view.name.clone(),
-                    view.object_points.clone(),
+                    original(*index).object_points.clone(),
                     view.image_points.iter().map(|p| p.coords).collect(),
                 );
                 o.suspected = keep.map(|keep| keep.iter().map(|k| !k).collect());
@@ -434,6 +462,27 @@ pub fn prepare_camera(
         prepared.start_from_simpler_model();
     }
     Ok(prepared)
+}
+
+/// The point the start re-centres the board on, if its origin lies far outside it: the
+/// centroid of every view's board points when it is more than three RMS board sizes from the
+/// origin (the rule of `JointProblem::board_normalization`); `None` for ordinary boards, whose
+/// start is computed exactly as given.
+fn board_offset(views: &[(usize, &View)]) -> Option<Point3<f64>> {
+    let (mut n, mut sum, mut sum_sq) = (0usize, nalgebra::Vector3::zeros(), 0.0);
+    for p in views.iter().flat_map(|(_, v)| &v.object_points) {
+        n += 1;
+        sum += p.coords;
+        sum_sq += p.coords.norm_squared();
+    }
+    let centre = sum / n.max(1) as f64;
+    let size = (sum_sq / n.max(1) as f64 - centre.norm_squared())
+        .max(0.0)
+        .sqrt();
+    // Only in the board's plane: Z stays 0 for the planar start.
+    let centre = Point3::new(centre.x, centre.y, 0.0);
+    (n > 0 && centre.coords.iter().all(|v| v.is_finite()) && centre.coords.norm() > 3.0 * size)
+        .then_some(centre)
 }
 
 /// The model a many-term model starts from: its terms in OpenCV's order begin with those of

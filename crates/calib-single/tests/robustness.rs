@@ -2,9 +2,11 @@
 //! or with an offset origin, nearly frontal boards, stray corners, data that cannot determine the
 //! answer. Each finding has a test here.
 
+use calib_core::synthetic::default_distortion;
 use calib_single::synthetic::{SyntheticConfig, generate};
 use calib_single::{CalibrationOptions, Observations, calibrate};
-use nalgebra::Point3;
+use camera_model::{CameraModel, Intrinsics};
+use nalgebra::{Point3, Vector3};
 
 fn base() -> Observations {
     let config = SyntheticConfig {
@@ -92,6 +94,72 @@ fn board_units_and_origin_do_not_matter() {
             for i in 0..3 {
                 assert!(
                     (v.pose_std[i] - w.pose_std[i]).abs() <= 1e-3 * w.pose_std[i],
+                    "{what}"
+                );
+            }
+        }
+    }
+}
+
+/// Every lens model with the board's origin 20 m, 50 m and 1.8 km off a 0.2 m board: the start
+/// re-centres the board as the solver does. Before, the start worked on the user's coordinates:
+/// at 20 m rational8 was refused ("the initial pose puts point 9 behind the camera"), at 50 m the
+/// closed form was 1570 px off and brown-conrady4 refused "the board pose of view 0 is not
+/// determined", kannala-brandt4 called a view's points outliers, and on sourishg1/left at 20 m
+/// it returned a wrong camera (RMS 60 px) with exit code 0.
+#[test]
+fn every_lens_model_takes_a_board_origin_far_off_the_board() {
+    for model in CameraModel::ALL {
+        let mut config = SyntheticConfig {
+            model,
+            distortion: default_distortion(model),
+            views: 12,
+            noise_px: 0.2,
+            seed: 21,
+            ..Default::default()
+        };
+        if model.is_fisheye() {
+            let f = config.image_size.half_diagonal() / 75f64.to_radians();
+            config.intrinsics = Intrinsics::new(f, f, 322.0, 236.0);
+        }
+        let obs = generate(&config).unwrap().observations;
+        let mut options = CalibrationOptions::default();
+        options.model = model;
+        let reference = calibrate(&obs, &options).unwrap();
+        for shift in [
+            Vector3::new(20_000.0, 0.0, 0.0),
+            Vector3::new(0.0, -50_000.0, 0.0),
+            Vector3::new(1.5e6, 1e6, 0.0),
+        ] {
+            let what = format!("{model}, origin moved by {shift:?}");
+            let r = calibrate(&transform_board(&obs, |p| p + shift), &options)
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert!(r.solver.termination.is_converged(), "{what}");
+            let (a, b) = (r.camera.params(), reference.camera.params());
+            if model.num_distortion_params() <= 5 {
+                // One minimum: the same to a small fraction of a sigma (as above).
+                assert!(
+                    (r.rms - reference.rms).abs() < 1e-9 * reference.rms,
+                    "{what}"
+                );
+                for i in 0..4 {
+                    let sigma = reference.intrinsics_std[i];
+                    assert!((a[i] - b[i]).abs() <= 1e-3 * sigma, "{what}: {i}");
+                }
+            } else {
+                // The rational valleys hold several minima, and which one a path ends in moves
+                // with the last bits of the data (docs/camera-model.md, Convergence): measured,
+                // rational8 ended 4e-5 and 1.1e-3 relative above the reference's RMS at two of the
+                // three origins. A fit as good to 0.5% (the population test's higher minima are
+                // within 0.4%), the same focal length within 3 sigma.
+                assert!(
+                    (r.rms - reference.rms).abs() < 5e-3 * reference.rms,
+                    "{what}: rms {} vs {}",
+                    r.rms,
+                    reference.rms
+                );
+                assert!(
+                    (a[0] - b[0]).abs() < 3.0 * reference.intrinsics_std[0],
                     "{what}"
                 );
             }

@@ -17,7 +17,7 @@ use calib_core::{
     PreparedCamera, SolveOptions, View, prepare_camera,
 };
 use camera_model::{AnyCamera, Pose, skew};
-use nalgebra::{Matrix3, Point2};
+use nalgebra::{Matrix3, Point2, Vector3};
 use std::time::Instant;
 
 /// Calibrates a stereo rig (lens models `options.left.model` and `options.right.model`,
@@ -316,10 +316,20 @@ fn calibrate_pairs(
         ],
     )?;
     result.initial_methods = [left_method, right_method];
+    // The distance to the board itself (its points' centroid), not to its origin, which may lie
+    // anywhere in the board's plane.
+    let (count, sum) = problem
+        .observations
+        .iter()
+        .flat_map(|o| &o.object)
+        .fold((0usize, Vector3::zeros()), |(n, s), p| {
+            (n + 1, s + p.coords)
+        });
+    let centre = sum / count.max(1) as f64;
     let mut distances: Vec<f64> = result
         .pairs
         .iter()
-        .map(|p| p.left_pose.translation.norm())
+        .map(|p| (p.left_pose.rotation * centre + p.left_pose.translation).norm())
         .collect();
     distances.sort_by(f64::total_cmp);
     let distance = distances[distances.len() / 2];

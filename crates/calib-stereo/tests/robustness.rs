@@ -25,6 +25,7 @@ fn board_units_and_origin_do_not_matter() {
         ("micrometres", 1000.0, Vector3::zeros()),
         ("1e-8 units", 1e-8, Vector3::zeros()),
         ("origin 5 m off", 1.0, Vector3::new(-5000.0, 2500.0, 0.0)),
+        ("origin 20 m off", 1.0, Vector3::new(20_000.0, 0.0, 0.0)),
     ] {
         let r = calibrate_stereo(
             &transform(&set.observations, scale, shift),
@@ -32,6 +33,15 @@ fn board_units_and_origin_do_not_matter() {
         )
         .unwrap_or_else(|e| panic!("{what}: {e}"));
         assert!(r.solver.termination.is_converged(), "{what}");
+        // The baseline is judged against the distance to the board, not to its origin (a 10 m
+        // origin made sourishg1's 94 mm baseline "0.94% of the board distance").
+        assert!(
+            !r.warnings
+                .iter()
+                .any(|w| w.code == calib_core::warnings::WarningCode::ShortBaseline),
+            "{what}: {:?}",
+            r.warnings
+        );
         assert!(
             (r.rms - reference.rms).abs() < 1e-9 * reference.rms,
             "{what}: rms {} vs {}",
