@@ -409,12 +409,16 @@ pub fn focal_score_with(
 /// the pinhole plane: `tan(theta)` stretches points beyond it too much to fit a homography well.
 pub const FISHEYE_START_MAX_ANGLE: f64 = 70.0 * std::f64::consts::PI / 180.0;
 
+/// Fewest points [`fisheye_pose`] fits a pose to (a homography from 4 would follow their noise).
+pub const FISHEYE_POSE_MIN_POINTS: usize = 6;
+
 /// The board pose of a view seen through an equidistant camera with focal length `f` and
 /// principal point `(cx, cy)` (no distortion): each pixel at radius `r` from the principal point
 /// is the direction at `theta = r / f` off the axis; the points with `theta` below
 /// [`FISHEYE_START_MAX_ANGLE`] are mapped to the pinhole plane (`tan(theta)` along their
-/// direction), a homography from the board to that plane is fitted (at least 6 points), and the
-/// pose follows from it with `K = I`. `None` if too few points qualify or the fit fails.
+/// direction), a homography from the board to that plane is fitted (at least
+/// [`FISHEYE_POSE_MIN_POINTS`] points), and the pose follows from it with `K = I`. `None` if too
+/// few points qualify or the fit fails.
 pub fn fisheye_pose(
     f: f64,
     cx: f64,
@@ -433,7 +437,7 @@ pub fn fisheye_pose(
             plane.push(Point2::from(d * scale));
         }
     }
-    if board.len() < 6 {
+    if board.len() < FISHEYE_POSE_MIN_POINTS {
         return None;
     }
     let h = homography::dlt(&board, &plane).ok()?;

@@ -8,8 +8,8 @@ use crate::data::{ImageSize, View};
 use crate::diagnostics::{check_inside_image, duplicate_views};
 use crate::error::{CalibrationError, PointKind};
 use crate::init::{
-    FISHEYE_SCORING_POINTS, FISHEYE_SCORING_VIEWS, ScoringCamera, StartMethod, fisheye_pose,
-    fisheye_search, initial_pose, scoring_views, start_intrinsics,
+    FISHEYE_POSE_MIN_POINTS, FISHEYE_SCORING_POINTS, FISHEYE_SCORING_VIEWS, ScoringCamera,
+    StartMethod, fisheye_pose, fisheye_search, initial_pose, scoring_views, start_intrinsics,
 };
 use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
@@ -354,8 +354,23 @@ pub fn prepare_camera(
                 model: options.model,
                 fixed: fixed_camera_components(options, used.len()),
             };
-            let mut views = scoring_views(&homographies, &start_views, FISHEYE_SCORING_POINTS);
+            // Views with too few points for a fisheye pose would make every focal length's
+            // score infinite; they get their start pose from the homography below.
+            let (scoring_h, scoring_points): (Vec<_>, Vec<_>) = homographies
+                .iter()
+                .zip(&start_views)
+                .filter(|(_, (object, _))| object.len() >= FISHEYE_POSE_MIN_POINTS)
+                .map(|(h, v)| (*h, *v))
+                .unzip();
+            let mut views = scoring_views(&scoring_h, &scoring_points, FISHEYE_SCORING_POINTS);
             views.truncate(FISHEYE_SCORING_VIEWS);
+            if views.is_empty() {
+                return Err(CalibrationError::Initialization {
+                    reason: format!(
+                        "the fisheye start needs views with at least {FISHEYE_POSE_MIN_POINTS} points, and no view has that many"
+                    ),
+                });
+            }
             let f = fisheye_search(image_size, &scoring, &views).ok_or_else(|| {
                 CalibrationError::Initialization {
                     reason: "no focal length of an equidistant (fisheye) camera explains the views: are the points and the image size right?".into(),

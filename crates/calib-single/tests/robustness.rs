@@ -167,6 +167,55 @@ fn every_lens_model_takes_a_board_origin_far_off_the_board() {
     }
 }
 
+/// A view that shows only a few of the board's corners (4, or 5) does not stop the fisheye
+/// start: it needs 6 points per view for a fisheye pose, and such a view made every focal
+/// length's score infinite ("no focal length of an equidistant (fisheye) camera explains the
+/// views"), whichever view it was. It now scores on the other views and the short view starts
+/// from its homography.
+#[test]
+fn a_fisheye_view_with_only_its_outer_corners_does_not_stop_the_start() {
+    let mut config = SyntheticConfig {
+        model: CameraModel::KannalaBrandt4,
+        distortion: default_distortion(CameraModel::KannalaBrandt4),
+        views: 12,
+        noise_px: 0.2,
+        seed: 21,
+        ..Default::default()
+    };
+    let f = config.image_size.half_diagonal() / 75f64.to_radians();
+    config.intrinsics = Intrinsics::new(f, f, 322.0, 236.0);
+    let set = generate(&config).unwrap();
+    let mut options = CalibrationOptions::default();
+    options.model = CameraModel::KannalaBrandt4;
+    for (short, keep) in [(0, 4), (5, 4), (11, 5)] {
+        let mut obs = set.observations.clone();
+        let view = &mut obs.views[short];
+        let n = view.object_points.len();
+        // The board's corners first (and its centre for 5).
+        let pick: Vec<usize> = [
+            0,
+            config.board_cols - 1,
+            n - config.board_cols,
+            n - 1,
+            n / 2,
+        ]
+        .into_iter()
+        .take(keep)
+        .collect();
+        view.object_points = pick.iter().map(|&i| view.object_points[i]).collect();
+        view.image_points = pick.iter().map(|&i| view.image_points[i]).collect();
+        let r = calibrate(&obs, &options)
+            .unwrap_or_else(|e| panic!("view {short} with {keep} points: {e}"));
+        let k = r.camera.intrinsics;
+        assert!(
+            (k.fx - f).abs() < 3.0 * r.intrinsics_std[0] + 1.0,
+            "view {short}: fx {} against {f}",
+            k.fx
+        );
+        assert_eq!(r.views.len(), 12);
+    }
+}
+
 /// Pixels that are not square (an image resampled to another aspect ratio, like the bundled
 /// sourishg2 webcam's `fy / fx = 1.18`): the two square-pixel closed forms disagree, which used
 /// to send the start to the focal search (a hundred times slower); the closed form with `fx` and
