@@ -474,7 +474,7 @@ pub fn prepare_camera(
         warm_start: false,
     };
     if options.distortion_guess.is_none() {
-        prepared.start_from_simpler_model();
+        prepared.start_from_simpler_model()?;
     }
     Ok(prepared)
 }
@@ -514,11 +514,13 @@ impl PreparedCamera {
     /// same views with `brown-conrady5` (the extra terms zero): from the closed form, the extra
     /// terms' freedom lets the first iterations wander into another minimum (seen on 1 problem
     /// in 60 of the convergence population); from the simpler model's minimum they only refine
-    /// it. Keeps the start as it is if that solve fails.
-    fn start_from_simpler_model(&mut self) {
+    /// it. Keeps the start as it is if that solve fails, except when the simpler model's
+    /// intrinsics or a pose are not determined by the views: then the richer model's are not
+    /// either, and that refusal ([`CalibrationError::NotDetermined`]) is returned.
+    fn start_from_simpler_model(&mut self) -> Result<(), CalibrationError> {
         let model = self.initial.model;
         let Some(simple) = simpler_model(model) else {
-            return;
+            return Ok(());
         };
         let n = simple.num_params();
         let mut staged = self.clone();
@@ -527,18 +529,24 @@ impl PreparedCamera {
             self.initial.intrinsics,
             self.initial.distortion[..simple.num_distortion_params()].to_vec(),
         ) else {
-            return;
+            return Ok(());
         };
         staged.initial = camera;
         staged.fixed.retain(|&i| i < n);
+        // With the uncertainty: data that do not determine the simpler model's intrinsics do
+        // not determine the richer model's either (its Jacobian at this start holds the simpler
+        // one's columns). From four near-frontal views, where brown-conrady5 is refused for its
+        // focal length, rational8 went on to a degenerate fx of 8.7 px (truth 800) with a sigma
+        // of 1.2 px.
         let options = crate::SolveOptions {
-            compute_uncertainty: false,
             outliers: None,
             camera_warnings: false,
             ..crate::SolveOptions::default()
         };
-        let Ok(solution) = crate::solve(&staged.into_problem("start"), &options) else {
-            return;
+        let solution = match crate::solve(&staged.into_problem("start"), &options) {
+            Ok(solution) => solution,
+            Err(e @ CalibrationError::NotDetermined { .. }) => return Err(e),
+            Err(_) => return Ok(()),
         };
         let solved = &solution.cameras[0];
         let mut distortion = self.initial.distortion.clone();
@@ -548,6 +556,7 @@ impl PreparedCamera {
             self.initial_poses = solution.frames;
             self.warm_start = true;
         }
+        Ok(())
     }
 
     /// The options to solve this camera with: `options`, except that the default damping
