@@ -407,3 +407,34 @@ fn mixed_lens_models() {
     assert!((r.right.camera.intrinsics.fx - 420.0).abs() < 5.0 * r.right.intrinsics_std[0] + 1e-6);
     assert!((r.baseline - set.rig.translation.norm()).abs() < 1.0);
 }
+
+/// A camera whose lens model has terms the views do not determine (thin-prism12 on a narrow
+/// lens) is flagged, and in a pair the warning says the rig's sigmas may be too small as well:
+/// along the model's valley R and T trade off with the undetermined terms (measured up to 12
+/// of their sigmas off the truth).
+#[test]
+fn an_undetermined_lens_model_warns_about_the_rig_too() {
+    let c = config(12, 0.2, 13);
+    let set = generate_stereo(&c).unwrap();
+    let mut options = StereoOptions::default();
+    options.right.model = camera_model::CameraModel::ThinPrism12;
+    let r = calibrate_stereo(&set.observations, &options).unwrap();
+    let warning = r
+        .warnings
+        .iter()
+        .find(|w| w.message.contains("camera 'right': thin-prism12"))
+        .unwrap_or_else(|| panic!("{:?}", r.warnings));
+    assert!(
+        warning
+            .message
+            .contains("of the rig's transforms may understate"),
+        "{}",
+        warning.message
+    );
+    // The left camera's model is determined: no such warning for it.
+    assert!(
+        !r.warnings
+            .iter()
+            .any(|w| w.message.contains("camera 'left': brown"))
+    );
+}
