@@ -481,5 +481,13 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("1x1"), "{err}");
+        // A wild coordinate is printed short, not as 300 digits.
+        let mut wild = view(0.0);
+        wild.image_points[2].x = 1e300;
+        let err = check_inside_image(5, &wild, ImageSize::new(640, 480)).unwrap_err();
+        assert!(
+            err.to_string().contains("point 2: pixel (1.000e300, "),
+            "{err}"
+        );
     }
 }

@@ -59,7 +59,9 @@ pub enum CalibrationError {
     },
     /// An image point lies outside the image (by more than a small margin).
     #[error(
-        "view {view}, point {point}: pixel ({x:.1}, {y:.1}) lies outside the {width}x{height} image: is the image size right?"
+        "view {view}, point {point}: pixel ({}, {}) lies outside the {width}x{height} image: is the image size right?",
+        coordinate(*.x),
+        coordinate(*.y)
     )]
     PointOutsideImage {
         /// View index.
@@ -186,4 +188,14 @@ pub enum CalibrationError {
     /// The optimization produced a non-finite value.
     #[error("the optimization diverged ({0})")]
     Diverged(String),
+}
+
+/// A pixel coordinate for messages: one decimal, or scientific notation beyond a million (a
+/// coordinate of 1e300 printed in full is 300 digits).
+fn coordinate(v: f64) -> String {
+    if v.abs() < 1e6 {
+        format!("{v:.1}")
+    } else {
+        format!("{v:.3e}")
+    }
 }
