@@ -190,21 +190,26 @@ fn model_invalid_message(model: CameraModel, validity: &Validity) -> String {
 }
 
 /// What to do about distortion coefficients the data does not determine, for `model`: a model
-/// with fewer terms of the same kind where there is one, else holding coefficients fixed.
-fn fewer_terms_advice(model: CameraModel) -> &'static str {
+/// with fewer terms of the same kind where there is one, else holding the undetermined
+/// coefficients `loose` fixed (those the run did not hold already, in the model's order).
+fn fewer_terms_advice(model: CameraModel, loose: &[&str]) -> String {
     match model {
         CameraModel::ThinPrism12 => {
-            "use a model with fewer terms (rational8, brown-conrady5 or brown-conrady4) or add views covering the image"
+            "use a model with fewer terms (rational8, brown-conrady5 or brown-conrady4) or add views covering the image".into()
         }
         CameraModel::Rational8 => {
-            "use a model with fewer terms (brown-conrady5 or brown-conrady4) or add views covering the image"
+            "use a model with fewer terms (brown-conrady5 or brown-conrady4) or add views covering the image".into()
         }
-        CameraModel::BrownConrady5 => "use brown-conrady4 (no k3) or add views covering the image",
-        CameraModel::BrownConrady4 => {
-            "hold the undetermined coefficients fixed (--fix, e.g. --fix k2) or add views covering the image"
-        }
-        CameraModel::KannalaBrandt4 => {
-            "hold the higher coefficients fixed (--fix k4 or --fix k3,k4) or add views covering the image, out to its corners"
+        CameraModel::BrownConrady5 => "use brown-conrady4 (no k3) or add views covering the image".into(),
+        CameraModel::BrownConrady4 | CameraModel::KannalaBrandt4 => {
+            // The highest loose coefficient first, then the two highest.
+            let hold = match loose {
+                [] => "--fix, e.g. --fix k2".to_string(),
+                [one] => format!("--fix {one}"),
+                [.., a, b] => format!("--fix {b} or --fix {a},{b}"),
+            };
+            let reach = if model.is_fisheye() { ", out to its corners" } else { "" };
+            format!("hold the undetermined coefficients fixed ({hold}) or add views covering the image{reach}")
         }
     }
 }
@@ -296,7 +301,14 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                         } else {
                             ""
                         },
-                        fewer_terms_advice(camera.model)
+                        fewer_terms_advice(
+                            camera.model,
+                            &loose
+                                .iter()
+                                .copied()
+                                .filter(|n| names[4..].contains(n))
+                                .collect::<Vec<_>>()
+                        )
                     )
                 } else {
                     "add views with the board tilted in different directions and covering the image"
@@ -414,7 +426,7 @@ mod tests {
             CameraModel::ThinPrism12,
             CameraModel::KannalaBrandt4,
         ] {
-            let advice = fewer_terms_advice(model);
+            let advice = fewer_terms_advice(model, &["k3", "k4"]);
             // Never the model itself, never a model with more terms, never a pinhole model for
             // the fisheye.
             for other in [
@@ -433,7 +445,13 @@ mod tests {
                 }
             }
         }
-        assert!(fewer_terms_advice(CameraModel::BrownConrady4).contains("--fix"));
+        // Holding names what is loose and not held yet (with --fix k4 given, k3 alone is left).
+        assert!(
+            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3", "k4"])
+                .contains("(--fix k4 or --fix k3,k4)")
+        );
+        assert!(fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3"]).contains("(--fix k3)"));
+        assert!(fewer_terms_advice(CameraModel::BrownConrady4, &["k2"]).contains("--fix k2"));
     }
 
     use super::*;

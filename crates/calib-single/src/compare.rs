@@ -6,7 +6,9 @@
 //! evaluated on the other half: the camera is held at the fitted values and only the held-out
 //! views' poses are estimated; the cross-validated RMS is over both halves' held-out points. The
 //! recommendation is the model with the fewest parameters whose cross-validated RMS is within
-//! [`CV_TOLERANCE`] of the best and which is valid (one-to-one) over the image.
+//! [`CV_TOLERANCE`] of the best valid one and which is valid (one-to-one) over the image; when a
+//! model that folds inside the image fits clearly better, the comparison says so
+//! ([`ModelComparison::gap_to_best_fit`]).
 
 use crate::calibrate::calibrate;
 use crate::observations::Observations;
@@ -57,6 +59,13 @@ pub struct ModelComparison {
     pub rows: Vec<ModelRow>,
     /// The recommended model, if any calibrated.
     pub recommended: Option<CameraModel>,
+    /// The model with the lowest cross-validated RMS among all fitted ones, valid or not.
+    pub best_fit: Option<CameraModel>,
+    /// How far the recommended model's cross-validated RMS lies above `best_fit`'s, as a
+    /// fraction (0.57: 57% higher). Above [`CV_TOLERANCE`], no model valid over the image fits
+    /// the lens as well as one that folds inside it: the recommendation is the best valid one,
+    /// not an adequate one.
+    pub gap_to_best_fit: Option<f64>,
     /// Names of the distortion coefficients held fixed in every model (empty: none).
     pub held_fixed: Vec<String>,
 }
@@ -185,6 +194,15 @@ pub fn compare_models(
         })
         .min_by_key(|r| r.parameters)
         .map(|r| r.model);
+    // Models whose fit folds inside the image still show what the lens needs.
+    let best_fit = rows
+        .iter()
+        .filter_map(|r| score(r).map(|s| (r.model, s)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let gap_to_best_fit = recommended.zip(best_fit).and_then(|(m, (_, best))| {
+        let chosen = rows.iter().find(|r| r.model == m).and_then(score)?;
+        Some((chosen / best - 1.0).max(0.0))
+    });
     let names = options.model.distortion_names();
     let mut held_fixed: Vec<String> = options
         .fixed_distortion
@@ -197,6 +215,8 @@ pub fn compare_models(
     ModelComparison {
         rows,
         recommended,
+        best_fit: best_fit.map(|b| b.0),
+        gap_to_best_fit,
         held_fixed,
     }
 }
@@ -234,13 +254,22 @@ impl ModelComparison {
             );
         }
         match self.recommended {
-            Some(m) => {
-                let _ = writeln!(
-                    out,
-                    "recommended: {m} (the fewest parameters among the valid models whose cross-validated RMS is within {:.0}% of the best)",
-                    100.0 * CV_TOLERANCE
-                );
-            }
+            Some(m) => match (self.best_fit, self.gap_to_best_fit) {
+                (Some(best), Some(gap)) if gap > CV_TOLERANCE => {
+                    let _ = writeln!(
+                        out,
+                        "recommended: {m}, the best of the models valid over the image, but its cross-validated RMS is {:.0}% above {best}'s, which folds inside the image: no model both fits this lens and stays one-to-one over the image. Add views with the board near the image corners (they constrain the richer model where it folds), and until then trust {m} only as far as its cross-validated error",
+                        100.0 * gap
+                    );
+                }
+                _ => {
+                    let _ = writeln!(
+                        out,
+                        "recommended: {m} (the fewest parameters among the valid models whose cross-validated RMS is within {:.0}% of the best)",
+                        100.0 * CV_TOLERANCE
+                    );
+                }
+            },
             None => {
                 let _ = writeln!(out, "no model is valid over the image");
             }

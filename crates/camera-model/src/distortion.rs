@@ -107,6 +107,15 @@ pub trait LensDistortion:
     fn pole_radius(&self) -> Option<f64> {
         None
     }
+
+    /// The radial factor as polynomials in `t = |n|^2`: `(numerator, denominator)`, coefficients
+    /// from the constant term up, such that with its non-radial terms (tangential, thin prism) at
+    /// zero the model maps `n` to `n N(t) / D(t)`. `None` for a model not of that form. The
+    /// validity check finds the radial fold from it exactly (`crate::validity`): a fold band
+    /// between close roots can be far narrower than a sampled walk's step.
+    fn radial_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        None
+    }
 }
 
 /// The smallest `t > 0` with `1 + a t + b t^2 + c t^3 = 0` (a double root counts), if any.
@@ -207,6 +216,10 @@ impl LensDistortion for BrownConrady {
 
     fn identity() -> Self {
         Self::default()
+    }
+
+    fn radial_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        Some((vec![1.0, self.k1, self.k2], vec![1.0]))
     }
 
     #[inline]
@@ -396,6 +409,11 @@ macro_rules! rational_family_model {
                 ($n > 5).then(|| 1.0 + k[5] * r2 + k[6] * r2 * r2 + k[7] * r2 * r2 * r2)
             }
 
+            fn radial_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+                let k = self.full();
+                Some((vec![1.0, k[0], k[1], k[4]], vec![1.0, k[5], k[6], k[7]]))
+            }
+
             fn pole_radius(&self) -> Option<f64> {
                 let k = self.full();
                 if $n > 5 {
@@ -467,6 +485,12 @@ impl LensDistortion for KannalaBrandt4 {
 
     fn identity() -> Self {
         Self::default()
+    }
+
+    /// In `t = theta^2`: `theta_d = theta (1 + k1 t + k2 t^2 + k3 t^3 + k4 t^4)`.
+    fn radial_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let [k1, k2, k3, k4] = self.coefficients;
+        Some((vec![1.0, k1, k2, k3, k4], vec![1.0]))
     }
 
     #[inline]
