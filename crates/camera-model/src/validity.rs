@@ -559,4 +559,72 @@ mod tests {
         assert!(!v.covers_image(0.05) && v.covers_image(0.0), "{v:?}");
         assert!((v.coverage - ratio).abs() < 0.01, "{v:?}");
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// Against a dense walk: for random radial rational8 models (no tangential terms, so
+        /// along +x the map is `r -> r c(r)`), the fold the validity reports along ray 0 is the
+        /// first place where the distorted radius stops increasing, found by stepping `r` by
+        /// 2e-5 up to 2: the same distorted radius within what that step can resolve, and never
+        /// a fold the dense walk does not see. Coefficients up to 50, as the rational valleys
+        /// give (k1 = -26, k2 = 175 in a fit a helper audit found).
+        #[test]
+        fn the_reported_fold_is_the_first_one_a_dense_walk_finds(
+            k in proptest::collection::vec(-50.0f64..50.0, 6),
+        ) {
+            let distortion = vec![k[0], k[1], 0.0, 0.0, k[2], k[3], k[4], k[5]];
+            let c = AnyCamera::new(
+                CameraModel::Rational8,
+                Intrinsics::new(500.0, 500.0, 1999.5, 1999.5),
+                distortion,
+            )
+            .unwrap();
+            let v = c.validity(4000, 4000);
+            let num = |t: f64| 1.0 + k[0] * t + k[1] * t * t + k[2] * t * t * t;
+            let den = |t: f64| 1.0 + k[3] * t + k[4] * t * t + k[5] * t * t * t;
+            // The dense walk: the first r where the denominator stops being positive or the
+            // distorted radius decreases.
+            let step = 2e-5;
+            let (mut previous, mut fold) = (0.0f64, None);
+            let mut r = step;
+            while r <= 2.0 {
+                let t = r * r;
+                if den(t) <= 0.0 {
+                    fold = Some((r, f64::NAN));
+                    break;
+                }
+                let radius = r * num(t) / den(t);
+                if radius < previous {
+                    fold = Some((r, previous));
+                    break;
+                }
+                previous = radius;
+                r += step;
+            }
+            let reported = v.limit_px[0].map(|p| (p.x - 1999.5) / 500.0);
+            // The walk ends without failure once the distorted radius passes four image radii.
+            let cap = 4.0 * v.image_radius_px / 500.0;
+            if previous > cap {
+                return Ok(());
+            }
+            match (fold, reported) {
+                // A fold (not a pole) within r <= 2: the same distorted radius.
+                (Some((_, dense)), Some(walk)) if dense.is_finite() => {
+                    proptest::prop_assert!(
+                        (walk - dense).abs() <= 1e-3 * dense.abs().max(1.0),
+                        "walk {} dense {} for {:?}", walk, dense, k
+                    );
+                }
+                (Some((_, dense)), None) if dense.is_finite() => {
+                    proptest::prop_assert!(false, "fold at distorted radius {} missed for {:?}", dense, k);
+                }
+                // No failure up to r = 2: the walk may only stop beyond it (or at a distorted
+                // radius beyond what r = 2 reaches).
+                (None, Some(walk)) => {
+                    proptest::prop_assert!(walk >= previous * (1.0 - 1e-3), "walk {} stops before r = 2 ({}) for {:?}", walk, previous, k);
+                }
+                _ => {}
+            }
+        }
+    }
 }
