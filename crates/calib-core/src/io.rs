@@ -30,12 +30,14 @@ pub enum ReadError {
         limit: u64,
     },
     /// The file is not valid JSON of the expected format.
-    #[error("{path}: {source}")]
+    #[error("{path}: {source}{context}")]
     Json {
         /// The path (or `<string>` for text parsed from memory).
         path: String,
         /// The parse error, with line and column.
         source: serde_json::Error,
+        /// For a syntax error, the text there and what it means (`NaN` is not JSON); else empty.
+        context: String,
     },
     /// The file is valid JSON but its content is inconsistent.
     #[error("{path}: {reason}")]
@@ -81,8 +83,42 @@ pub fn read_text(path: &Path, max_bytes: u64) -> Result<(String, String), ReadEr
 pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str, path: &str) -> Result<T, ReadError> {
     serde_json::from_str(text).map_err(|source| ReadError::Json {
         path: path.to_string(),
+        context: syntax_context(text, &source),
         source,
     })
+}
+
+/// For a syntax error: the text at the error (files are often one long line, where a column
+/// alone does not help), and a hint when it is a non-finite number, which JSON cannot hold.
+fn syntax_context(text: &str, error: &serde_json::Error) -> String {
+    if !error.is_syntax() {
+        return String::new();
+    }
+    let Some(line) = text.lines().nth(error.line().saturating_sub(1)) else {
+        return String::new();
+    };
+    // serde_json's column is 1-based and counts bytes.
+    let at = error.column().saturating_sub(1).min(line.len());
+    let floor = |mut i: usize| {
+        while !line.is_char_boundary(i) {
+            i -= 1;
+        }
+        i
+    };
+    let (from, to) = (
+        floor(at.saturating_sub(40)),
+        floor((at + 20).min(line.len())),
+    );
+    let here = line[floor(at)..].trim_start();
+    let hint = if ["NaN", "nan", "Infinity", "-Infinity", "inf", "-inf"]
+        .iter()
+        .any(|w| here.starts_with(w))
+    {
+        ": JSON has no NaN or infinity; leave a corner that was not found out of its view (with its board point)"
+    } else {
+        ""
+    };
+    format!(", near \"{}\"{hint}", &line[from..to])
 }
 
 /// Reads a JSON file of type `T` of at most `max_bytes` bytes ([`read_text`], [`parse_json`]).
@@ -190,5 +226,30 @@ mod tests {
         let leftovers = std::fs::read_dir(&dir).unwrap().count();
         assert_eq!(leftovers, 1);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A non-finite number (what some detectors write for a corner they did not find) is a JSON
+    /// syntax error: the message quotes the text there and says what to do; any other syntax
+    /// error gets the text only.
+    #[test]
+    fn syntax_errors_quote_the_text_and_name_non_finite_numbers() {
+        let err = parse_json::<serde_json::Value>(
+            r#"{"image_points": [[1.5, 2.0], [NaN, 3.0]]}"#,
+            "v.json",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.starts_with("v.json: expected value at line 1"), "{err}");
+        assert!(
+            err.contains("[NaN, 3.0]") && err.contains("JSON has no NaN"),
+            "{err}"
+        );
+        let err = parse_json::<serde_json::Value>(r#"{"a": [1.5 2.0]}"#, "w.json")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("near \"{\"a\": [1.5 2.0]}\"") && !err.contains("NaN"),
+            "{err}"
+        );
     }
 }
