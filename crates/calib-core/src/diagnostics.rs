@@ -165,7 +165,7 @@ pub fn duplicate_views(views: &[&View], homographies: &[Matrix3<f64>]) -> Vec<(u
 /// The `model-invalid` warning for `model` with `validity` (not covering the image with
 /// [`VALIDITY_MARGIN`]): whether the fold is inside the image or within the margin beyond it,
 /// and what to do.
-fn model_invalid_message(model: CameraModel, validity: &Validity) -> String {
+fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str]) -> String {
     // `coverage` compares each ray's fold with the border along the same ray; the nearest fold
     // and the farthest corner may lie in different directions.
     let (place, consequence) = if validity.coverage < 1.0 {
@@ -176,10 +176,16 @@ fn model_invalid_message(model: CameraModel, validity: &Validity) -> String {
             "pixels near the border are close to the fold, where the model is unreliable",
         )
     };
-    let remedy = if model == CameraModel::KannalaBrandt4 {
-        "hold the higher coefficients fixed (--fix k4 or --fix k3,k4) or add views with the board near the image corners"
-    } else {
-        "use a model with fewer terms or add views with the board near the image corners"
+    // The fisheye has no simpler model of its kind: hold its highest free coefficients.
+    let remedy = match (model, free) {
+        (CameraModel::KannalaBrandt4, [.., a, b]) => format!(
+            "hold the higher coefficients fixed (--fix {b} or --fix {a},{b}) or add views with the board near the image corners"
+        ),
+        (CameraModel::KannalaBrandt4, [b]) => format!(
+            "hold the higher coefficients fixed (--fix {b}) or add views with the board near the image corners"
+        ),
+        _ => "use a model with fewer terms or add views with the board near the image corners"
+            .to_string(),
     };
     format!(
         "the {model} lens model stops being one-to-one {place}: along its worst direction at {:.0}% of the distance from the principal point to the image border ({:.0}% is checked; the nearest fold is {:.0} px from the principal point): {consequence}; {remedy}",
@@ -253,7 +259,21 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
         if !validity.covers_image(VALIDITY_MARGIN) {
             warnings.push(Warning::new(
                 WarningCode::ModelInvalid,
-                format!("{who}{}", model_invalid_message(camera.model, &validity)),
+                format!(
+                    "{who}{}",
+                    model_invalid_message(
+                        camera.model,
+                        &validity,
+                        &spec
+                            .param_names()
+                            .into_iter()
+                            .enumerate()
+                            .skip(4)
+                            .filter(|(i, _)| !spec.fixed.contains(i))
+                            .map(|(_, name)| name)
+                            .collect::<Vec<_>>()
+                    )
+                ),
             ));
         }
         if let Some(cov) = &solution.camera_covariance[c] {
@@ -402,18 +422,22 @@ mod tests {
             coverage,
             limit_px: [None; camera_model::validity::VALIDITY_RAYS],
         };
-        let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67));
+        let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67), &[]);
         assert!(
             inside.contains("inside the image") && inside.contains("at 67% of the distance"),
             "{inside}"
         );
-        let outside = model_invalid_message(CameraModel::ThinPrism12, &validity(1.03));
+        let outside = model_invalid_message(CameraModel::ThinPrism12, &validity(1.03), &[]);
         assert!(
             outside.contains("just outside the image") && outside.contains("105% is checked"),
             "{outside}"
         );
-        let fisheye = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95));
-        assert!(fisheye.contains("--fix k4"), "{fisheye}");
+        let all = ["k1", "k2", "k3", "k4"];
+        let fisheye = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all);
+        assert!(fisheye.contains("(--fix k4 or --fix k3,k4)"), "{fisheye}");
+        // With k4 held already, the advice goes on from the highest free one.
+        let held = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all[..3]);
+        assert!(held.contains("(--fix k3 or --fix k2,k3)"), "{held}");
     }
 
     #[test]
