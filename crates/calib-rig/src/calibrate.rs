@@ -558,6 +558,29 @@ pub fn calibrate_rig(
         &filtered
     };
 
+    // A camera tied to the others by one frame only: its transform cannot be cross-checked.
+    for (c, camera) in observations.cameras.iter().enumerate() {
+        let shared: Vec<usize> = observations
+            .frames
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                f.observations.iter().any(|o| o.camera == c)
+                    && f.observations.iter().any(|o| o.camera != c)
+            })
+            .map(|(f, _)| f)
+            .collect();
+        if let [frame] = shared[..] {
+            warnings.push(Warning::new(
+                WarningCode::PoorlyDetermined,
+                format!(
+                    "camera '{}' shares only frame {frame} with the other cameras: its place in the rig rests on that one view and cannot be checked against another (a board whose corners are numbered the other way round there would turn it 180 degrees without a trace); add frames it sees together with another camera",
+                    camera.name
+                ),
+            ));
+        }
+    }
+
     let frames = frame_starts(observations, &starts, &transforms, &tree);
     let rejected: Vec<&BTreeMap<usize, Vec<usize>>> = starts.iter().map(|s| &s.rejected).collect();
     let (problem, frame_index) = build_problem(

@@ -97,3 +97,44 @@ fn board_units_and_origin_do_not_matter() {
         }
     }
 }
+
+/// A camera that shares a single frame with the others is calibrated, with a warning that its
+/// place in the rig rests on that one view (a helper audit: with that view's corners numbered
+/// the other way round, the camera came out 180 degrees wrong, exit 0, no warning). Cameras
+/// sharing many frames get no such warning.
+#[test]
+fn a_camera_tied_to_the_rig_by_one_frame_is_flagged() {
+    let data = generate_rig(&SyntheticRigConfig::default()).unwrap();
+    let last = data.observations.cameras.len() - 1;
+    let mut weak = data.observations.clone();
+    let mut kept = None;
+    for (f, frame) in weak.frames.iter_mut().enumerate() {
+        let sees = frame.observations.iter().any(|o| o.camera == last);
+        let others = frame.observations.iter().any(|o| o.camera != last);
+        if sees && others {
+            if kept.is_none() {
+                kept = Some(f);
+            } else {
+                // Only the last camera sees the board in the other frames it was in.
+                frame.observations.retain(|o| o.camera == last);
+            }
+        }
+    }
+    let kept = kept.expect("a shared frame");
+    let flagged = |r: &calib_rig::RigCalibration| {
+        r.warnings
+            .iter()
+            .any(|w| w.message.contains("shares only frame"))
+    };
+    let strong = calibrate_rig(&data.observations, &RigOptions::default()).unwrap();
+    assert!(!flagged(&strong), "{:?}", strong.warnings);
+    let r = calibrate_rig(&weak, &RigOptions::default()).unwrap();
+    let name = &weak.cameras[last].name;
+    assert!(
+        r.warnings.iter().any(|w| w
+            .message
+            .contains(&format!("camera '{name}' shares only frame {kept} "))),
+        "{:?}",
+        r.warnings
+    );
+}
