@@ -97,8 +97,9 @@ impl ExportOptions {
 /// The files of an export to `path`: `path` itself, except ROS stereo and rigs, which write
 /// one file per camera: `STEM-left.EXT` and `STEM-right.EXT` for stereo (`out.yaml` gives
 /// `out-left.yaml` and `out-right.yaml`), `STEM-NAME.EXT` for each camera of a rig (characters
-/// other than letters, digits, `_`, `-` and `.` in a name become `_`; `STEM-cam{i}.EXT` if two
-/// names would give the same file).
+/// other than letters, digits, `_`, `-` and `.` in a name become `_`; a camera whose name is
+/// empty, starts with `.` or gives the same file as an earlier camera's is `STEM-cam{i}.EXT`,
+/// with `_` appended while that is taken).
 pub fn export_paths(calibration: &Calibrated, format: Format, path: &Path) -> Vec<PathBuf> {
     let stem = path
         .file_stem()
@@ -133,15 +134,31 @@ pub fn export_paths(calibration: &Calibrated, format: Format, path: &Path) -> Ve
                         .collect()
                 })
                 .collect();
-            let unique = safe
-                .iter()
-                .enumerate()
-                .all(|(i, s)| !s.is_empty() && !s.starts_with('.') && !safe[..i].contains(s));
-            if unique {
-                named(safe)
-            } else {
-                named((0..safe.len()).map(|i| format!("cam{i}")).collect())
-            }
+            // Each camera keeps its own name where it can: only a name that is empty, hidden
+            // (leading '.') or already taken by an earlier camera falls back to `cam{i}`, made
+            // unique against every name in use (a camera may itself be called "cam0").
+            let usable = |i: usize| {
+                let s = &safe[i];
+                !s.is_empty() && !s.starts_with('.') && !safe[..i].contains(s)
+            };
+            let mut taken: Vec<String> = (0..safe.len())
+                .filter(|&i| usable(i))
+                .map(|i| safe[i].clone())
+                .collect();
+            let names = (0..safe.len())
+                .map(|i| {
+                    if usable(i) {
+                        return safe[i].clone();
+                    }
+                    let mut name = format!("cam{i}");
+                    while taken.contains(&name) {
+                        name.push('_');
+                    }
+                    taken.push(name.clone());
+                    name
+                })
+                .collect();
+            named(names)
         }
         _ => vec![path.to_path_buf()],
     }

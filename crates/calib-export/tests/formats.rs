@@ -476,6 +476,31 @@ fn rigs_round_trip_through_opencv_and_kalibr_and_give_one_ros_file_per_camera() 
             "d/ros-top.yaml"
         ]
     );
+    // A name that cannot be a file name falls back for that camera only, never to another
+    // camera's name (an audit found "cam2" written to ros-cam0.yaml when one name was hidden).
+    let mut awkward = rig.clone();
+    for (c, name) in awkward
+        .cameras
+        .iter_mut()
+        .zip(["cam2", "left/front", ".hidden", "cam0"])
+    {
+        c.name = name.into();
+    }
+    let paths = calib_export::export_paths(
+        &Calibrated::Rig(awkward),
+        Format::Ros,
+        std::path::Path::new("d/ros.yaml"),
+    );
+    let files: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    assert_eq!(
+        files,
+        [
+            "d/ros-cam2.yaml",
+            "d/ros-left_front.yaml",
+            "d/ros-cam2_.yaml",
+            "d/ros-cam0.yaml"
+        ]
+    );
     let texts = export_texts(&calibrated, Format::Ros, &options).unwrap();
     assert_eq!(texts.len(), 4);
     for (text, original) in texts.iter().zip(&rig.cameras) {
