@@ -4,7 +4,7 @@
 
 use crate::error::RigError;
 use crate::graph::{SpanningTree, shared_frames, spanning_tree};
-use crate::observations::RigObservations;
+use crate::observations::{RigFrame, RigObservations};
 use crate::options::RigOptions;
 use crate::result::{FrameResult, FrameView, RigCalibration, RigCamera, params_of};
 use calib_core::result::CameraEstimate;
@@ -234,6 +234,40 @@ fn camera_tree(
             })
             .collect(),
     })
+}
+
+/// Largest pixel difference (px) between two views of one camera that are the same capture.
+const SAME_CAPTURE_PX: f64 = 0.5;
+
+/// Frames that repeat an earlier one, as `(copy, original)`: the same cameras, each with the
+/// same board points and every pixel within [`SAME_CAPTURE_PX`] of the earlier frame's.
+fn duplicate_frames(observations: &RigObservations) -> Vec<(usize, usize)> {
+    let same = |a: &RigFrame, b: &RigFrame| {
+        a.observations.len() == b.observations.len()
+            && !a.observations.is_empty()
+            && a.observations.iter().all(|x| {
+                b.observations.iter().any(|y| {
+                    x.camera == y.camera
+                        && x.view.object_points == y.view.object_points
+                        && x.view
+                            .image_points
+                            .iter()
+                            .zip(&y.view.image_points)
+                            .all(|(p, q)| (p - q).norm() <= SAME_CAPTURE_PX)
+                })
+            })
+    };
+    let frames = &observations.frames;
+    let mut out = Vec::new();
+    for j in 0..frames.len() {
+        if let Some(i) = (0..j)
+            .filter(|i| !out.iter().any(|&(copy, _)| copy == *i))
+            .find(|&i| same(&frames[i], &frames[j]))
+        {
+            out.push((j, i));
+        }
+    }
+    out
 }
 
 /// The board poses of the frames cameras `a` and `b` both saw, in `a`'s and in `b`'s frame.
@@ -505,6 +539,42 @@ pub fn calibrate_rig(
 ) -> Result<RigCalibration, RigError> {
     let start = Instant::now();
     check(observations, options)?;
+    // Repeated frames (a file listed twice, the board not moved) would count their views twice
+    // and shrink every sigma by sqrt(2): left out with a warning, as calib single does.
+    let mut warnings = Vec::new();
+    let deduplicated;
+    let duplicates = if options.camera.drop_duplicate_views {
+        duplicate_frames(observations)
+    } else {
+        Vec::new()
+    };
+    let observations = if duplicates.is_empty() {
+        observations
+    } else {
+        let listed: Vec<String> = duplicates
+            .iter()
+            .take(10)
+            .map(|(copy, original)| format!("frame {copy} = frame {original}"))
+            .collect();
+        warnings.push(Warning::new(
+            WarningCode::DuplicateViews,
+            format!(
+                "{} frame{} repeat{} an earlier frame (the board did not move, or a frame is listed twice) and {} left out: {}{}",
+                duplicates.len(),
+                if duplicates.len() > 1 { "s" } else { "" },
+                if duplicates.len() > 1 { "" } else { "s" },
+                if duplicates.len() > 1 { "were" } else { "was" },
+                listed.join(", "),
+                if duplicates.len() > 10 { ", ..." } else { "" }
+            ),
+        ));
+        let mut copy = observations.clone();
+        for (f, _) in &duplicates {
+            copy.frames[*f].observations.clear();
+        }
+        deduplicated = copy;
+        &deduplicated
+    };
     let n = observations.cameras.len();
     // The graph first: a disconnected rig is refused before any camera is calibrated.
     let tree = camera_tree(observations, options)?;
@@ -516,7 +586,6 @@ pub fn calibrate_rig(
     repair_transforms(observations, &starts, &mut transforms, &tree);
 
     // Views that contradict the rig: refused, or left out with a warning (skip_bad_views).
-    let mut warnings = Vec::new();
     let inconsistent = inconsistent_views(observations, &starts, &transforms);
     let filtered;
     let observations = if inconsistent.is_empty() {
