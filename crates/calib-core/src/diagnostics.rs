@@ -162,6 +162,29 @@ pub fn duplicate_views(views: &[&View], homographies: &[Matrix3<f64>]) -> Vec<(u
     pairs
 }
 
+/// The `duplicate-views` warning for repeated captures: `pairs` are `(copy, original)` in the
+/// user's numbering of `kind`s ("view", "frame"); the first ten are listed.
+pub fn duplicates_warning(kind: &str, pairs: &[(usize, usize)]) -> Warning {
+    let n = pairs.len();
+    let listed: Vec<String> = pairs
+        .iter()
+        .take(10)
+        .map(|(copy, original)| format!("{kind} {copy} = {kind} {original}"))
+        .collect();
+    Warning::new(
+        WarningCode::DuplicateViews,
+        format!(
+            "{n} {kind}{} repeat{} an earlier {kind} (the board did not move, or a {} is listed twice) and {} left out: {}{}",
+            if n > 1 { "s" } else { "" },
+            if n > 1 { "" } else { "s" },
+            if kind == "view" { "file" } else { kind },
+            if n > 1 { "were" } else { "was" },
+            listed.join(", "),
+            if n > 10 { ", ..." } else { "" }
+        ),
+    )
+}
+
 /// The `model-invalid` warning for `model` with `validity` (not covering the image with
 /// [`VALIDITY_MARGIN`]): whether the fold is inside the image or within the margin beyond it,
 /// and what to do.

@@ -15,7 +15,7 @@ use crate::options::CalibrationOptions;
 use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
 use crate::solve::JointSolution;
-use crate::warnings::{Warning, WarningCode};
+use crate::warnings::Warning;
 use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
 use lm_solver::DampingPolicy;
 use nalgebra::{Matrix3, Point2, Point3, Vector2};
@@ -274,23 +274,11 @@ pub fn prepare_camera(
         duplicate_views(&views, &homographies)
     };
     if !duplicates.is_empty() {
-        let described: Vec<String> = duplicates
+        let numbered: Vec<(usize, usize)> = duplicates
             .iter()
-            .take(10)
-            .map(|&(copy, original)| format!("view {} = view {}", used[copy].0, used[original].0))
+            .map(|&(copy, original)| (used[copy].0, used[original].0))
             .collect();
-        warnings.push(Warning::new(
-            WarningCode::DuplicateViews,
-            format!(
-                "{} view{} repeat{} an earlier view (the board did not move, or a file is listed twice) and {} left out: {}{}",
-                duplicates.len(),
-                if duplicates.len() > 1 { "s" } else { "" },
-                if duplicates.len() > 1 { "" } else { "s" },
-                if duplicates.len() > 1 { "were" } else { "was" },
-                described.join(", "),
-                if duplicates.len() > 10 { ", ..." } else { "" }
-            ),
-        ));
+        warnings.push(crate::diagnostics::duplicates_warning("view", &numbered));
         let mut drop = vec![false; used.len()];
         for &(copy, _) in &duplicates {
             drop[copy] = true;

@@ -551,22 +551,9 @@ pub fn calibrate_rig(
     let observations = if duplicates.is_empty() {
         observations
     } else {
-        let listed: Vec<String> = duplicates
-            .iter()
-            .take(10)
-            .map(|(copy, original)| format!("frame {copy} = frame {original}"))
-            .collect();
-        warnings.push(Warning::new(
-            WarningCode::DuplicateViews,
-            format!(
-                "{} frame{} repeat{} an earlier frame (the board did not move, or a frame is listed twice) and {} left out: {}{}",
-                duplicates.len(),
-                if duplicates.len() > 1 { "s" } else { "" },
-                if duplicates.len() > 1 { "" } else { "s" },
-                if duplicates.len() > 1 { "were" } else { "was" },
-                listed.join(", "),
-                if duplicates.len() > 10 { ", ..." } else { "" }
-            ),
+        warnings.push(calib_core::diagnostics::duplicates_warning(
+            "frame",
+            &duplicates,
         ));
         let mut copy = observations.clone();
         for (f, _) in &duplicates {
