@@ -263,13 +263,18 @@ pub(crate) fn radial_fold(numerator: &[f64], denominator: &[f64], max_t: f64) ->
                 0.0
             }
         });
-        candidates.extend(
-            companion
-                .complex_eigenvalues()
-                .iter()
-                .map(|z| z.re)
-                .filter(|&t| t > 0.0 && t.is_finite()),
-        );
+        // Bounded iterations: nalgebra's `complex_eigenvalues` iterates without limit. Should
+        // the QR iteration not converge, a dense grid in `t` gives the candidates instead.
+        match nalgebra::linalg::Schur::try_new(companion, f64::EPSILON, 10_000) {
+            Some(schur) => candidates.extend(
+                schur
+                    .complex_eigenvalues()
+                    .iter()
+                    .map(|z| z.re)
+                    .filter(|&t| t > 0.0 && t.is_finite()),
+            ),
+            None => candidates.extend((1..4096).map(|i| max_t * i as f64 / 4096.0)),
+        }
     }
     candidates.push(max_t);
     candidates.sort_by(f64::total_cmp);
