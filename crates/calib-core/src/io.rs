@@ -36,7 +36,8 @@ pub enum ReadError {
         path: String,
         /// The parse error, with line and column.
         source: serde_json::Error,
-        /// For a syntax error, the text there and what it means (`NaN` is not JSON); else empty.
+        /// For a syntax or data error, the text there and what it means (`NaN` is not JSON);
+        /// else empty.
         context: String,
     },
     /// The file is valid JSON but its content is inconsistent.
@@ -88,10 +89,11 @@ pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str, path: &str) -> Res
     })
 }
 
-/// For a syntax error: the text at the error (files are often one long line, where a column
-/// alone does not help), and a hint when it is a non-finite number, which JSON cannot hold.
+/// For a syntax or data error (a value of the wrong kind, e.g. a camera index of -1): the text
+/// at the error (files are often one long line, where a column alone does not help), and a hint
+/// when it is a non-finite number, which JSON cannot hold.
 fn syntax_context(text: &str, error: &serde_json::Error) -> String {
-    if !error.is_syntax() {
+    if !(error.is_syntax() || error.is_data()) || error.line() == 0 {
         return String::new();
     }
     let Some(line) = text.lines().nth(error.line().saturating_sub(1)) else {
@@ -251,5 +253,10 @@ mod tests {
             err.contains("near \"{\"a\": [1.5 2.0]}\"") && !err.contains("NaN"),
             "{err}"
         );
+        // A value of the wrong kind (a negative camera index) is quoted too.
+        let err = parse_json::<Vec<usize>>("[3, -1]", "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("near \"[3, -1]\""), "{err}");
     }
 }
