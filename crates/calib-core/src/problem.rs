@@ -186,6 +186,29 @@ pub struct BoardNormalization {
 }
 
 impl BoardNormalization {
+    /// The centroid and RMS spread of `points` (one pass), whether or not they need normalizing;
+    /// `None` without points or with non-finite ones.
+    pub fn measure<'a>(points: impl IntoIterator<Item = &'a Point3<f64>>) -> Option<Self> {
+        let (mut n, mut sum, mut sum_sq) = (0usize, Vector3::zeros(), 0.0);
+        for p in points {
+            n += 1;
+            sum += p.coords;
+            sum_sq += p.coords.norm_squared();
+        }
+        if n == 0 {
+            return None;
+        }
+        let centre = sum / n as f64;
+        let scale = (sum_sq / n as f64 - centre.norm_squared()).max(0.0).sqrt();
+        (centre.iter().all(|v| v.is_finite()) && scale.is_finite())
+            .then_some(BoardNormalization { centre, scale })
+    }
+
+    /// The board's origin lies more than three RMS sizes from its points' centroid.
+    pub fn origin_is_far(&self) -> bool {
+        self.centre.norm() > 3.0 * self.scale
+    }
+
     /// A frame pose (board to reference camera) of the original problem in the normalized one:
     /// `t' = (R c + t) / s`.
     pub fn normalize_frame(&self, pose: &Pose) -> Pose {
@@ -210,20 +233,8 @@ impl JointProblem {
     /// three sizes from the board origin. Ordinary boards (millimetres or metres, origin on the
     /// board) are solved as given, so their numbers do not change at all.
     pub fn board_normalization(&self) -> Option<BoardNormalization> {
-        // One pass: the centroid and the mean squared norm give the RMS spread.
-        let (mut n, mut sum, mut sum_sq) = (0usize, Vector3::zeros(), 0.0);
-        for p in self.observations.iter().flat_map(|o| o.object.iter()) {
-            n += 1;
-            sum += p.coords;
-            sum_sq += p.coords.norm_squared();
-        }
-        if n == 0 {
-            return None;
-        }
-        let centre = sum / n as f64;
-        let scale = (sum_sq / n as f64 - centre.norm_squared()).max(0.0).sqrt();
-        let needed = !(0.01..=1e4).contains(&scale) || centre.norm() > 3.0 * scale;
-        (needed && scale.is_finite() && scale > 0.0).then_some(BoardNormalization { centre, scale })
+        BoardNormalization::measure(self.observations.iter().flat_map(|o| o.object.iter()))
+            .filter(|n| (!(0.01..=1e4).contains(&n.scale) || n.origin_is_far()) && n.scale > 0.0)
     }
 
     /// The problem in normalized board coordinates: board points `(X - c) / s`, frame

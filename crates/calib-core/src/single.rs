@@ -12,7 +12,7 @@ use crate::init::{
     StartMethod, fisheye_pose, fisheye_search, initial_pose, scoring_views, start_intrinsics,
 };
 use crate::options::CalibrationOptions;
-use crate::problem::{CameraSpec, JointProblem, ObservationSpec};
+use crate::problem::{BoardNormalization, CameraSpec, JointProblem, ObservationSpec};
 use crate::result::SkippedView;
 use crate::solve::JointSolution;
 use crate::warnings::Warning;
@@ -472,20 +472,10 @@ pub fn prepare_camera(
 /// origin (the rule of `JointProblem::board_normalization`); `None` for ordinary boards, whose
 /// start is computed exactly as given.
 fn board_offset(views: &[(usize, &View)]) -> Option<Point3<f64>> {
-    let (mut n, mut sum, mut sum_sq) = (0usize, nalgebra::Vector3::zeros(), 0.0);
-    for p in views.iter().flat_map(|(_, v)| &v.object_points) {
-        n += 1;
-        sum += p.coords;
-        sum_sq += p.coords.norm_squared();
-    }
-    let centre = sum / n.max(1) as f64;
-    let size = (sum_sq / n.max(1) as f64 - centre.norm_squared())
-        .max(0.0)
-        .sqrt();
-    // Only in the board's plane: Z stays 0 for the planar start.
-    let centre = Point3::new(centre.x, centre.y, 0.0);
-    (n > 0 && centre.coords.iter().all(|v| v.is_finite()) && centre.coords.norm() > 3.0 * size)
-        .then_some(centre)
+    BoardNormalization::measure(views.iter().flat_map(|(_, v)| &v.object_points))
+        .filter(BoardNormalization::origin_is_far)
+        // Only in the board's plane: Z stays 0 for the planar start.
+        .map(|n| Point3::new(n.centre.x, n.centre.y, 0.0))
 }
 
 /// The model a many-term model starts from: its terms in OpenCV's order begin with those of

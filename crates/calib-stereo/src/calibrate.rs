@@ -318,14 +318,10 @@ fn calibrate_pairs(
     result.initial_methods = [left_method, right_method];
     // The distance to the board itself (its points' centroid), not to its origin, which may lie
     // anywhere in the board's plane.
-    let (count, sum) = problem
-        .observations
-        .iter()
-        .flat_map(|o| &o.object)
-        .fold((0usize, Vector3::zeros()), |(n, s), p| {
-            (n + 1, s + p.coords)
-        });
-    let centre = sum / count.max(1) as f64;
+    let centre = calib_core::problem::BoardNormalization::measure(
+        problem.observations.iter().flat_map(|o| &o.object),
+    )
+    .map_or_else(Vector3::zeros, |n| n.centre);
     let mut distances: Vec<f64> = result
         .pairs
         .iter()
