@@ -40,6 +40,7 @@ impl BoardArgs {
 
 /// Arguments of `calib detect`.
 #[derive(Args, Debug)]
+#[command(mut_arg("board", |a| a.required(true)))]
 pub struct DetectArgs {
     /// Images (JPEG or PNG) of the left or only camera.
     #[arg(required = true, value_name = "IMAGE")]

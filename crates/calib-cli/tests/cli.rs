@@ -431,6 +431,22 @@ fn photographs_to_calibration() {
     for name in ["left1.png", "left2.png", "left3.png", "blank.png"] {
         assert!(draw.join(name).exists(), "{name}");
     }
+    // `calib detect` needs the board: its usage line says so, and clap refuses without it.
+    let help =
+        String::from_utf8(calib().args(["detect", "--help"]).output().unwrap().stdout).unwrap();
+    assert!(help.contains("--board <COLSxROWS> <IMAGE>"), "{help}");
+    let run = calib()
+        .arg("detect")
+        .arg(&images[0])
+        .args(["-o", "-"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        String::from_utf8(run.stderr)
+            .unwrap()
+            .contains("--board <COLSxROWS>")
+    );
 
     // Stereo from photographs.
     let right: Vec<String> = (1..=29)

@@ -119,7 +119,11 @@ fn rig(
 /// :class:`CalibrationError` when the rig cannot be rectified (e.g. an image corner that cannot
 /// be undistorted).
 #[pyfunction]
-#[pyo3(signature = (K1, D1, K2, D2, image_size, R, T, alpha=-1.0, *, model=None, model2=None))]
+// The text signature spells alpha's default out (pyo3 shows `...` for an `Option` default).
+#[pyo3(
+    signature = (K1, D1, K2, D2, image_size, R, T, alpha=-1.0, *, model=None, model2=None),
+    text_signature = "(K1, D1, K2, D2, image_size, R, T, alpha=-1.0, *, model=None, model2=None)"
+)]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 fn stereo_rectify<'py>(
     py: Python<'py>,

@@ -23,12 +23,10 @@ pub const FIX_FLAGS: [&str; 4] = [
 pub fn model(name: Option<&str>, what: &str) -> PyResult<CameraModel> {
     match name {
         None => Ok(CameraModel::default()),
-        Some(name) => name.parse().map_err(|e| {
-            PyValueError::new_err(format!(
-                "{what}: {e} (expected one of {})",
-                CameraModel::NAMES.join(", ")
-            ))
-        }),
+        // The parse error already lists the known names.
+        Some(name) => name
+            .parse()
+            .map_err(|e| PyValueError::new_err(format!("{what}: {e}"))),
     }
 }
 
