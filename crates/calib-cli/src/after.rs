@@ -149,10 +149,18 @@ pub fn read_camera(
                     ))
                 })
         }
-        (calibrated @ Calibrated::Stereo(_), None) => Err(Failure(format!(
-            "{what} {path}: holds {}; give a single camera's file (calib stereo takes rigs with --intrinsics, single cameras with --left-intrinsics / --right-intrinsics)",
-            calibrated.kind()
-        ))),
+        (calibrated @ Calibrated::Stereo(_), None) => {
+            let names: Vec<String> = calibrated
+                .cameras()
+                .iter()
+                .map(|c| format!("'{}'", c.name))
+                .collect();
+            Err(Failure(format!(
+                "{what} {path}: holds {} (cameras {}); name one (calib undistort --camera NAME) or give a single camera's file (calib stereo takes stereo files with --intrinsics, single cameras with --left-intrinsics / --right-intrinsics)",
+                calibrated.kind(),
+                names.join(" and ")
+            )))
+        }
         (calibrated @ Calibrated::Rig(_), None) => Err(Failure(format!(
             "{what} {path}: holds {}; give a single camera's file, or name the camera (calib undistort --camera NAME; calib rig --intrinsics NAME=FILE takes the camera NAME of a rig file)",
             calibrated.kind()
@@ -188,6 +196,16 @@ pub fn select_pair(
         }
         Calibrated::Stereo(s) if s.left.name == left && s.right.name == right => {
             Ok(Calibrated::Stereo(s))
+        }
+        // The pair the other way round: X_left = R^T X_right - R^T T.
+        Calibrated::Stereo(s) if s.left.name == right && s.right.name == left => {
+            let rotation = s.rotation.transpose();
+            Ok(Calibrated::Stereo(calib_export::StereoRig {
+                translation: -(rotation * s.translation),
+                rotation,
+                left: s.right,
+                right: s.left,
+            }))
         }
         other => Err(Failure(format!(
             "--pair {pair}: {source} holds {}, not a rig of several cameras",
@@ -368,10 +386,15 @@ pub struct UndistortArgs {
     pub output: PathBuf,
     /// Free scaling: 0 keeps only valid pixels, 1 keeps every source pixel (OpenCV's
     /// getOptimalNewCameraMatrix).
-    #[arg(long, default_value_t = 0.0, value_name = "A")]
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        value_name = "A"
+    )]
     pub alpha: f64,
-    /// Threads (0 = all cores).
-    #[arg(long, default_value_t = 0)]
+    /// Threads (0 = all cores, at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Do not print the summary.
     #[arg(short, long)]
@@ -401,6 +424,29 @@ fn output_paths(images: &[&PathBuf], dir: &Path, inputs: &[&str]) -> Result<Vec<
         out.push(path);
     }
     Ok(out)
+}
+
+/// Checks that every image can be opened and has `size` (from its header, without decoding),
+/// so that a bad input is refused before any output is written.
+fn check_images(images: &[&PathBuf], size: calib_core::ImageSize) -> Result<(), Failure> {
+    for input in images {
+        let dimensions = board_detect::image::ImageReader::open(input)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(|e| e.to_string())
+            .and_then(|r| r.into_dimensions().map_err(|e| e.to_string()))
+            .map_err(|e| Failure(format!("{}: {e}", input.display())))?;
+        if dimensions != (size.width, size.height) {
+            return Err(Failure(format!(
+                "{}: {}x{} pixels, but the calibration is for {}x{} (nothing was written)",
+                input.display(),
+                dimensions.0,
+                dimensions.1,
+                size.width,
+                size.height
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Remaps `images` with `map` into `outputs` in parallel; every image must have `map`'s size.
@@ -452,6 +498,12 @@ fn rows<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> ser
 }
 
 pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
+    if !(0.0..=1.0).contains(&args.alpha) {
+        return Err(Failure(format!(
+            "--alpha {}: expected 0 (only valid pixels) to 1 (every source pixel)",
+            args.alpha
+        )));
+    }
     let camera = read_camera(&args.camera, "CAMERA", args.camera_name.as_deref())?;
     let (k_new, roi) = optimal_new_camera_matrix(&camera.camera, camera.image_size, args.alpha)
         .map_err(|e| Failure(format!("{}: {e}", args.camera)))?;
@@ -468,6 +520,7 @@ pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
     let outputs = output_paths(&images, &args.output, &input_refs)?;
     let sidecar = args.output.join("undistortion.json");
     check_not_input(&sidecar.to_string_lossy(), &input_refs)?;
+    check_images(&images, camera.image_size)?;
     let start = std::time::Instant::now();
     with_threads(args.threads, || {
         let map = PixelMap::undistort(&camera, &k_new).map_err(|e| Failure(e.to_string()))?;
@@ -536,8 +589,8 @@ pub struct RectifyArgs {
     /// Folder for the rectified images (each keeps its input file name).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Threads (0 = all cores).
-    #[arg(long, default_value_t = 0)]
+    /// Threads (0 = all cores, at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Do not print the summary.
     #[arg(short, long)]
@@ -584,8 +637,19 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
             "nothing to do: give -o RECT.json and/or --images ... --right ... --out DIR".into(),
         ));
     }
+    if has_images && args.images.len() != args.right.len() {
+        return Err(Failure(format!(
+            "--images and --right: {} left and {} right images; give them as pairs, in the same order",
+            args.images.len(),
+            args.right.len()
+        )));
+    }
     let rect = stereo_rectify(&rig, alpha_option(args.alpha)?)
         .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+    if has_images {
+        let all: Vec<&PathBuf> = args.images.iter().chain(&args.right).collect();
+        check_images(&all, rect.image_size)?;
+    }
     if let Some(path) = &args.output {
         check_not_input(path, &[&args.input])?;
         write_json(path, &rect.to_json())?;

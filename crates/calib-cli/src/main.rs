@@ -126,6 +126,20 @@ pub fn parse_list(text: &str, expected: usize, what: &str) -> Result<Vec<f64>, F
         .collect()
 }
 
+/// Most threads `--threads` takes: far above any core count, and below the thousands that made
+/// the system refuse (or take minutes) to create them.
+pub const MAX_THREADS: usize = 1024;
+
+/// Parses `--threads`: 0 (every core) to [`MAX_THREADS`].
+pub fn parse_threads(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n <= MAX_THREADS => Ok(n),
+        _ => Err(format!(
+            "expected 0 (every core) to {MAX_THREADS} threads, got '{text}'"
+        )),
+    }
+}
+
 /// Parses `WxH`.
 pub fn parse_size(text: &str, what: &str) -> Result<(u32, u32), Failure> {
     let parts: Vec<&str> = text.split(['x', 'X']).collect();

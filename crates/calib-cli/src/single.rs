@@ -81,8 +81,8 @@ pub struct CameraArgs {
     /// Damping policy of Levenberg-Marquardt.
     #[arg(long, value_enum, default_value_t = Damping::Hybrid)]
     pub damping: Damping,
-    /// Threads (0 = all cores). The result does not depend on it.
-    #[arg(long, default_value_t = 0)]
+    /// Threads (0 = all cores, at most 1024). The result does not depend on it.
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
 }
 

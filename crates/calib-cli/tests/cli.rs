@@ -644,6 +644,128 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&run.stderr).contains("replace the input"));
+
+    // An image of another size is refused before anything is written: the alpha-1 image and
+    // the sidecar of the run above stay as they were (the first image used to be replaced
+    // before the second failed).
+    let small = temp("after-small.png");
+    board_detect::image::GrayImage::from_pixel(320, 180, board_detect::image::Luma([9]))
+        .save(&small)
+        .unwrap();
+    let before = (
+        std::fs::read(und.join("left3.jpg")).unwrap(),
+        std::fs::read(und.join("undistortion.json")).unwrap(),
+    );
+    let run = calib()
+        .arg("undistort")
+        .arg(&single)
+        .arg(data("sourishg1/images/left3.jpg"))
+        .arg(&small)
+        .args(["--alpha", "0", "-o"])
+        .arg(&und)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(err.contains("after-small.png: 320x180 pixels"), "{err}");
+    let after = (
+        std::fs::read(und.join("left3.jpg")).unwrap(),
+        std::fs::read(und.join("undistortion.json")).unwrap(),
+    );
+    assert!(before == after, "the output folder changed");
+    // Rectification checks its images before writing the JSON, and wants pairs.
+    let rect2 = temp("after-rect2.json");
+    let run = calib()
+        .arg("rectify")
+        .arg(&rig)
+        .arg("-o")
+        .arg(&rect2)
+        .args(["--images", &data("sourishg1/images/left3.jpg")])
+        .arg(&small)
+        .args([
+            "--right",
+            &data("sourishg1/images/right3.jpg"),
+            &data("sourishg1/images/right4.jpg"),
+            "--out",
+        ])
+        .arg(temp("after-rectified2"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("after-small.png"));
+    assert!(!rect2.exists() && !temp("after-rectified2").join("left3.jpg").exists());
+    let run = calib()
+        .arg("rectify")
+        .arg(&rig)
+        .args([
+            "--images",
+            &data("sourishg1/images/left3.jpg"),
+            &data("sourishg1/images/left4.jpg"),
+        ])
+        .args(["--right", &data("sourishg1/images/right3.jpg"), "--out"])
+        .arg(temp("after-rectified3"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("2 left and 1 right images"));
+    // The pair the other way round: the inverse transform.
+    let reversed = temp("after-rect-reversed.json");
+    run_ok(
+        calib()
+            .arg("rectify")
+            .arg(&rig)
+            .args(["--pair", "right,left", "-q", "--alpha", "-1", "-o"])
+            .arg(&reversed),
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&reversed).unwrap()).unwrap();
+    // The right camera is now the reference: the baseline points the other way (P2's x
+    // translation changes sign).
+    let forward: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rect).unwrap()).unwrap();
+    let tx = |v: &serde_json::Value| v["P2"][0][3].as_f64().unwrap();
+    assert!(
+        tx(&r) * tx(&forward) < 0.0,
+        "{} vs {}",
+        tx(&r),
+        tx(&forward)
+    );
+    // Thread counts beyond the limit and alphas out of range get a message, not minutes of
+    // thread creation or clap's "unexpected argument '-1'".
+    let err = refused_with(
+        2,
+        &[
+            "undistort",
+            &single.to_string_lossy(),
+            &data("sourishg1/images/left3.jpg"),
+            "-o",
+            &und.to_string_lossy(),
+            "--threads",
+            "100000",
+        ],
+    );
+    assert!(err.contains("0 (every core) to 1024"), "{err}");
+    let err = refused_with(
+        1,
+        &[
+            "undistort",
+            &single.to_string_lossy(),
+            &data("sourishg1/images/left3.jpg"),
+            "-o",
+            &und.to_string_lossy(),
+            "--alpha",
+            "-1",
+        ],
+    );
+    assert!(err.contains("--alpha -1: expected 0"), "{err}");
+}
+
+/// Runs `calib ARGS...`, expects exit code `code` and returns stderr.
+fn refused_with(code: i32, args: &[&str]) -> String {
+    let run = calib().args(args).output().unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(run.status.code(), Some(code), "{args:?}: {err}");
+    err
 }
 
 /// `--intrinsics FILE` reads a calib result and every exported format (OpenCV, ROS, Kalibr): held
@@ -872,10 +994,7 @@ fn reports_from_results_and_calibrate_commands() {
 
 /// Runs `calib ARGS...`, expects exit code 1 and returns stderr.
 fn refused(args: &[&str]) -> String {
-    let run = calib().args(args).output().unwrap();
-    let err = String::from_utf8(run.stderr).unwrap();
-    assert_eq!(run.status.code(), Some(1), "{args:?}: {err}");
-    err
+    refused_with(1, args)
 }
 
 /// Options that would be silently ignored, or applied to the wrong coefficient, are refused with

@@ -167,20 +167,42 @@ pub fn stereo_rectify(rig: &StereoRig, alpha: Option<f64>) -> Result<Rectificati
     };
     let mut s = 1.0;
     if let Some(alpha) = alpha {
-        let s0 = ratios(&inner1, &cc[0])
-            .into_iter()
-            .chain(ratios(&inner2, &cc[1]))
-            .fold(f64::MIN, f64::max);
         let s1 = ratios(&outer1, &cc[0])
             .into_iter()
             .chain(ratios(&outer2, &cc[1]))
             .fold(f64::MAX, f64::min);
-        s = s0 * (1.0 - alpha) + s1 * alpha;
+        s = s1;
+        if alpha < 1.0 {
+            // The all-valid scale needs each image's inner rectangle, which is empty when the
+            // border rows and columns of a rectified image overlap (cameras rolled by about 40
+            // degrees or more relative to each other; OpenCV then returns a scale from the
+            // empty rectangle's edges, e.g. f = 13931 for a 35-degree roll).
+            for (inner, camera) in [(&inner1, &rig.left), (&inner2, &rig.right)] {
+                if !inner.is_nonempty() {
+                    return Err(ExportError::invalid(
+                        "stereo rectification",
+                        format!(
+                            "alpha {alpha}: the rectified image of camera '{}' has no rectangle of valid pixels to scale to (the cameras are rotated by {:.0} degrees relative to each other, and each rectified image is turned by half of that); use alpha 1 (every source pixel kept) or -1 (no scaling)",
+                            camera.name,
+                            r_vec.norm().to_degrees()
+                        ),
+                    ));
+                }
+            }
+            let s0 = ratios(&inner1, &cc[0])
+                .into_iter()
+                .chain(ratios(&inner2, &cc[1]))
+                .fold(f64::MIN, f64::max);
+            s = s0 * (1.0 - alpha) + s1 * alpha;
+        }
     }
     if !(s.is_finite() && s > 0.0) {
         return Err(ExportError::invalid(
             "stereo rectification",
-            format!("the scale for alpha {alpha:?} is {s}: the rectified images would be empty"),
+            format!(
+                "the scale for alpha {} is {s}: the rectified images would be empty (part of an image cannot be rectified into the common image plane: the cameras look too far apart)",
+                alpha.unwrap_or(-1.0)
+            ),
         ));
     }
     f *= s;

@@ -71,10 +71,28 @@ impl PixelMap {
     }
 }
 
+/// A channel type [`remap_image`] resamples in place: 8 or 16 bits.
+trait Channel: image::Primitive + Into<f32> + Send + Sync {
+    /// The channel value nearest to `v`, clamped to the type's range.
+    fn from_f32(v: f32) -> Self;
+}
+
+impl Channel for u8 {
+    fn from_f32(v: f32) -> Self {
+        v.round().clamp(0.0, 255.0) as u8
+    }
+}
+
+impl Channel for u16 {
+    fn from_f32(v: f32) -> Self {
+        v.round().clamp(0.0, 65535.0) as u16
+    }
+}
+
 /// Bilinear sample of channel values at `(x, y)`; pixels outside the image count as zero
 /// (OpenCV's `BORDER_CONSTANT`), and a point with no neighbour inside is `None`.
-fn sample<P: Pixel<Subpixel = u8>>(
-    image: &ImageBuffer<P, Vec<u8>>,
+fn sample<S: Channel, P: Pixel<Subpixel = S>>(
+    image: &ImageBuffer<P, Vec<S>>,
     x: f32,
     y: f32,
 ) -> Option<[f32; 4]> {
@@ -101,19 +119,19 @@ fn sample<P: Pixel<Subpixel = u8>>(
         }
         let p = image.get_pixel(px as u32, py as u32);
         for (a, c) in acc.iter_mut().zip(p.channels()) {
-            *a += weight * *c as f32;
+            *a += weight * (*c).into();
         }
     }
     Some(acc)
 }
 
-fn remap_buffer<P: Pixel<Subpixel = u8> + Sync>(
-    image: &ImageBuffer<P, Vec<u8>>,
+fn remap_buffer<S: Channel, P: Pixel<Subpixel = S> + Sync>(
+    image: &ImageBuffer<P, Vec<S>>,
     map: &PixelMap,
-) -> ImageBuffer<P, Vec<u8>> {
+) -> ImageBuffer<P, Vec<S>> {
     let channels = P::CHANNEL_COUNT as usize;
     let w = map.size.width as usize;
-    let mut data = vec![0u8; w * map.size.height as usize * channels];
+    let mut data = vec![S::DEFAULT_MIN_VALUE; w * map.size.height as usize * channels];
     data.par_chunks_mut(w * channels)
         .enumerate()
         .for_each(|(v, row)| {
@@ -121,7 +139,7 @@ fn remap_buffer<P: Pixel<Subpixel = u8> + Sync>(
                 let [x, y] = map.source[v * w + u];
                 if let Some(acc) = sample(image, x, y) {
                     for c in 0..channels {
-                        row[u * channels + c] = acc[c].round().clamp(0.0, 255.0) as u8;
+                        row[u * channels + c] = S::from_f32(acc[c]);
                     }
                 }
             }
@@ -130,14 +148,19 @@ fn remap_buffer<P: Pixel<Subpixel = u8> + Sync>(
         .expect("buffer of width x height x channels")
 }
 
-/// Resamples `image` through `map` (bilinear, black where the map has no source). Gray and
-/// RGB(A) 8-bit images keep their type; other types are converted to 8-bit RGB.
+/// Resamples `image` through `map` (bilinear, black where the map has no source). Grey, grey
+/// with alpha, RGB and RGBA images of 8 or 16 bits keep their type (as `cv2.remap` keeps the
+/// depth); other types (32-bit float) are converted to 8-bit RGB.
 pub fn remap_image(image: &DynamicImage, map: &PixelMap) -> DynamicImage {
     match image {
         DynamicImage::ImageLuma8(b) => DynamicImage::ImageLuma8(remap_buffer(b, map)),
         DynamicImage::ImageRgb8(b) => DynamicImage::ImageRgb8(remap_buffer(b, map)),
         DynamicImage::ImageRgba8(b) => DynamicImage::ImageRgba8(remap_buffer(b, map)),
         DynamicImage::ImageLumaA8(b) => DynamicImage::ImageLumaA8(remap_buffer(b, map)),
+        DynamicImage::ImageLuma16(b) => DynamicImage::ImageLuma16(remap_buffer(b, map)),
+        DynamicImage::ImageRgb16(b) => DynamicImage::ImageRgb16(remap_buffer(b, map)),
+        DynamicImage::ImageRgba16(b) => DynamicImage::ImageRgba16(remap_buffer(b, map)),
+        DynamicImage::ImageLumaA16(b) => DynamicImage::ImageLumaA16(remap_buffer(b, map)),
         other => DynamicImage::ImageRgb8(remap_buffer(&other.to_rgb8(), map)),
     }
 }
@@ -232,8 +255,18 @@ mod tests {
             image::Luma([pattern(q.x, q.y).round() as u8])
         });
         let map = PixelMap::undistort(&camera, &k_new).unwrap();
-        let out = remap_image(&DynamicImage::ImageLuma8(source), &map).to_luma8();
-        let mut worst: f64 = 0.0;
+        // The same scene in 16 bits (256 times the levels) keeps its depth through the remap,
+        // as cv2.remap does (it was converted to 8-bit RGB).
+        let deep = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(320, 240, |u, v| {
+            image::Luma([source.get_pixel(u, v)[0] as u16 * 256])
+        });
+        let out8 = remap_image(&DynamicImage::ImageLuma8(source), &map);
+        let out16 = remap_image(&DynamicImage::ImageLuma16(deep), &map);
+        let DynamicImage::ImageLuma16(out16) = out16 else {
+            panic!("16-bit grey came out as {:?}", out16.color());
+        };
+        let out8 = out8.to_luma8();
+        let (mut worst, mut worst16): (f64, f64) = (0.0, 0.0);
         for v in 20..220 {
             for u in 20..300 {
                 let [x, y] = map.source[v * 320 + u];
@@ -241,9 +274,15 @@ mod tests {
                     continue;
                 }
                 let expected = pattern(u as f64, v as f64);
-                worst = worst.max((out.get_pixel(u as u32, v as u32)[0] as f64 - expected).abs());
+                let (u, v) = (u as u32, v as u32);
+                worst = worst.max((out8.get_pixel(u, v)[0] as f64 - expected).abs());
+                worst16 = worst16.max((out16.get_pixel(u, v)[0] as f64 / 256.0 - expected).abs());
             }
         }
         assert!(worst <= 1.5, "worst difference {worst} levels");
+        assert!(
+            worst16 <= 1.5,
+            "16 bits: worst difference {worst16} levels of 8 bits"
+        );
     }
 }

@@ -28,6 +28,20 @@ pub struct Rect {
     pub height: f64,
 }
 
+impl Rect {
+    /// True for a finite rectangle of positive width and height. The inner rectangle of
+    /// [`undistort_rectangles`] is empty (negative width or height) when the border rows or
+    /// columns of the undistorted image overlap, e.g. for a camera rolled far by the
+    /// rectification.
+    pub fn is_nonempty(&self) -> bool {
+        [self.x, self.y, self.width, self.height]
+            .iter()
+            .all(|v| v.is_finite())
+            && self.width > 0.0
+            && self.height > 0.0
+    }
+}
+
 /// The unit viewing ray (camera frame) through `pixel`.
 pub fn pixel_ray(camera: &AnyCamera, pixel: &Vector2<f64>) -> Result<Vector3<f64>, ExportError> {
     camera
@@ -98,8 +112,9 @@ pub const GRID: usize = 9;
 /// rectangles of the undistorted image, as OpenCV's `getUndistortRectangles` computes them: a
 /// 9x9 grid of pixels `(i (w - 1) / 8, j (h - 1) / 8)` is undistorted ([`undistort_point`]
 /// with `rectification` and `new_matrix`); `outer` is their bounding box, `inner` is bounded by
-/// the innermost point of each border row and column. Grid points that cannot be undistorted
-/// (beyond the lens model's range or behind the image plane) are left out.
+/// the innermost point of each border row and column, and may be empty
+/// ([`Rect::is_nonempty`]). Grid points that cannot be undistorted (beyond the lens model's
+/// range or behind the image plane) are left out.
 pub fn undistort_rectangles(
     camera: &AnyCamera,
     image_size: ImageSize,
@@ -110,7 +125,7 @@ pub fn undistort_rectangles(
 }
 
 /// [`undistort_rectangles`]; with `every_point`, a grid point that cannot be undistorted is an
-/// error instead of being left out.
+/// error instead of being left out, and so is an empty inner rectangle.
 fn rectangles(
     camera: &AnyCamera,
     image_size: ImageSize,
@@ -127,9 +142,12 @@ fn rectangles(
     for j in 0..GRID {
         for i in 0..GRID {
             let pixel = Vector2::new(i as f64 * (w - 1.0) / n, j as f64 * (h - 1.0) / n);
-            let Ok(p) = undistort_point(camera, &pixel, rectification, new_matrix) else {
-                first_lost.get_or_insert(pixel);
-                continue;
+            let p = match undistort_point(camera, &pixel, rectification, new_matrix) {
+                Ok(p) => p,
+                Err(e) => {
+                    first_lost.get_or_insert((pixel, e));
+                    continue;
+                }
             };
             count += 1;
             ox0 = ox0.min(p.x);
@@ -162,23 +180,23 @@ fn rectangles(
         width: ox1 - ox0,
         height: oy1 - oy0,
     };
-    let usable = |r: &Rect| {
-        r.x.is_finite()
-            && r.y.is_finite()
-            && r.width > 0.0
-            && r.height > 0.0
-            && r.width.is_finite()
-            && r.height.is_finite()
-    };
-    if let Some(first) = first_lost.filter(|_| every_point) {
-        // A fisheye seeing more than 90 degrees off its axis there: without those points the
-        // rectangles lose their border, and the camera matrix came out degenerate (fx 1.3
-        // against fy 2.6 for a 200-degree lens) instead of failing.
+    let lost = GRID * GRID - count;
+    if let Some((first, error)) = first_lost.filter(|_| every_point) {
+        let why = if let ExportError::Camera { source, .. } = &error {
+            // The camera model's inverse failed: the distortion is not one-to-one there.
+            format!(
+                "{source}: the lens model is not one-to-one out to the image corners (see the calibration's model-invalid warning), so no new camera matrix covers this image; recalibrate with a model valid over the image, e.g. as calib single --compare-models recommends"
+            )
+        } else {
+            // A fisheye seeing more than 90 degrees off its axis there: without those points
+            // the rectangles lose their border, and the camera matrix came out degenerate
+            // (fx 1.3 against fy 2.6 for a 200-degree lens) instead of failing.
+            "it has no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image".to_string()
+        };
         return Err(ExportError::invalid(
             "undistortion",
             format!(
-                "{} of {} grid points over the {}x{} image (the first at pixel ({}, {})) have no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image",
-                GRID * GRID - count,
+                "{lost} of {} grid points over the {}x{} image cannot be undistorted; the first, pixel ({}, {}): {why}",
                 GRID * GRID,
                 image_size.width,
                 image_size.height,
@@ -187,7 +205,7 @@ fn rectangles(
             ),
         ));
     }
-    if count < 4 || !usable(&inner) || !usable(&outer) {
+    if count < 4 || !outer.is_nonempty() || (every_point && !inner.is_nonempty()) {
         return Err(ExportError::invalid(
             "undistortion",
             format!(
@@ -293,6 +311,24 @@ mod tests {
                 "{k}"
             );
         }
+    }
+
+    /// A lens model that folds inside the image (k1 = -0.6 at f = 500: the radial map
+    /// `r (1 + k1 r^2)` turns back at r = 0.745, the corners are at r = 0.8) is refused for the
+    /// fold, not for a field of view beyond 90 degrees, which this narrow lens does not have.
+    #[test]
+    fn a_model_folding_inside_the_image_is_refused_for_the_fold() {
+        let cam = AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+            vec![-0.6, 0.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let err = optimal_new_camera_matrix(&cam, ImageSize::new(640, 480), 0.0)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not one-to-one"), "{err}");
+        assert!(!err.contains("90 degrees"), "{err}");
     }
 
     fn camera(model: CameraModel, k1: f64) -> AnyCamera {

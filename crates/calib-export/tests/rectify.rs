@@ -190,6 +190,62 @@ fn bad_rigs_and_alphas_are_typed_errors() {
     );
 }
 
+/// A right camera rolled about its axis by 45, 90 or 180 degrees (mounted sideways or upside
+/// down): alpha 1 and OpenCV's default scaling rectify it (points on one row, the source
+/// corners inside the alpha-1 images), while alpha 0, whose inner rectangle of valid pixels is
+/// empty there, is refused with a message naming the camera and the way out. (The all-valid
+/// rectangle used to make every alpha fail: "only 81 of 81 grid points ... can be undistorted".)
+#[test]
+fn rolled_cameras_rectify_with_alpha_one_or_default_and_refuse_alpha_zero() {
+    for degrees in [45.0f64, 90.0, 180.0] {
+        let mut r = rig(
+            CameraModel::BrownConrady5,
+            Vector3::new(-0.12, 0.002, 0.003),
+        );
+        r.rotation = AxisAngle::matrix(&Vector3::new(0.0, 0.0, degrees.to_radians()));
+        for alpha in [Some(1.0), None] {
+            let rect = stereo_rectify(&r, alpha).unwrap();
+            let what = format!("{degrees} degrees, alpha {alpha:?}");
+            let k1 = rect.p1.fixed_view::<3, 3>(0, 0).into_owned();
+            let k2 = rect.p2.fixed_view::<3, 3>(0, 0).into_owned();
+            let across = if rect.vertical { 0 } else { 1 };
+            for x_left in [Vector3::new(0.1, 0.05, 1.5), Vector3::new(-0.2, 0.1, 3.0)] {
+                let x_right = r.rotation * x_left + r.translation;
+                let pl = r.left.camera.project_camera_point(&x_left).unwrap();
+                let pr = r.right.camera.project_camera_point(&x_right).unwrap();
+                let ql = undistort_point(&r.left.camera, &pl, Some(&rect.r1), Some(&k1)).unwrap();
+                let qr = undistort_point(&r.right.camera, &pr, Some(&rect.r2), Some(&k2)).unwrap();
+                assert!(
+                    (ql[across] - qr[across]).abs() < 1e-8,
+                    "{what}: {ql} vs {qr}"
+                );
+            }
+            if alpha == Some(1.0) {
+                for (camera, rot, k) in [(&r.left, &rect.r1, &k1), (&r.right, &rect.r2, &k2)] {
+                    for (u, v) in [(0.0, 0.0), (639.0, 0.0), (0.0, 479.0), (639.0, 479.0)] {
+                        let q = undistort_point(
+                            &camera.camera,
+                            &Vector2::new(u, v),
+                            Some(rot),
+                            Some(k),
+                        )
+                        .unwrap();
+                        assert!(
+                            (-1.0..=640.0).contains(&q.x) && (-1.0..=480.0).contains(&q.y),
+                            "{what}: corner ({u}, {v}) -> {q}"
+                        );
+                    }
+                }
+            }
+        }
+        let err = stereo_rectify(&r, Some(0.0)).unwrap_err().to_string();
+        assert!(
+            err.contains("no rectangle of valid pixels") && err.contains("use alpha 1"),
+            "{degrees}: {err}"
+        );
+    }
+}
+
 /// Real images: calibrate the bundled sourishg1 rig from its corner file, rectify every pair's
 /// photographs, detect the board in the rectified images and compare the rows of the same
 /// corner. A good calibration leaves residual row differences of the order of the corner
