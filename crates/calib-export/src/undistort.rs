@@ -121,31 +121,56 @@ pub fn undistort_rectangles(
     rectification: Option<&Matrix3<f64>>,
     new_matrix: Option<&Matrix3<f64>>,
 ) -> Result<(Rect, Rect), ExportError> {
-    rectangles(camera, image_size, rectification, new_matrix, false)
+    rectangles(
+        camera,
+        image_size,
+        rectification,
+        new_matrix,
+        LostPoints::LeftOut,
+    )
 }
 
-/// [`undistort_rectangles`]; with `every_point`, a grid point that cannot be undistorted is an
-/// error instead of being left out, and so is an empty inner rectangle.
+/// What [`rectangles`] does with a grid point that cannot be undistorted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LostPoints {
+    /// Leave it out.
+    LeftOut,
+    /// Refuse (an error naming the first one); an empty inner rectangle is refused too.
+    Refused,
+    /// Leave it out if its ray points at or behind the ideal image plane (its undistorted image
+    /// lies at infinity in its own direction, so it bounds no inner rectangle), refuse if the
+    /// model cannot invert it; an empty inner rectangle is refused.
+    BehindPlaneLeftOut,
+}
+
+/// [`undistort_rectangles`], with `policy` saying what a grid point that cannot be undistorted
+/// does.
 fn rectangles(
     camera: &AnyCamera,
     image_size: ImageSize,
     rectification: Option<&Matrix3<f64>>,
     new_matrix: Option<&Matrix3<f64>>,
-    every_point: bool,
+    policy: LostPoints,
 ) -> Result<(Rect, Rect), ExportError> {
+    let every_point = policy != LostPoints::LeftOut;
     let (w, h) = (image_size.width as f64, image_size.height as f64);
     let n = (GRID - 1) as f64;
     let (mut ix0, mut ix1, mut iy0, mut iy1) = (f64::MIN, f64::MAX, f64::MIN, f64::MAX);
     let (mut ox0, mut ox1, mut oy0, mut oy1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     let mut count = 0;
     let mut first_lost = None;
+    let mut lost_behind_plane = false;
     for j in 0..GRID {
         for i in 0..GRID {
             let pixel = Vector2::new(i as f64 * (w - 1.0) / n, j as f64 * (h - 1.0) / n);
             let p = match undistort_point(camera, &pixel, rectification, new_matrix) {
                 Ok(p) => p,
                 Err(e) => {
-                    first_lost.get_or_insert((pixel, e));
+                    let behind = !matches!(e, ExportError::Camera { .. });
+                    lost_behind_plane |= behind;
+                    if !(behind && policy == LostPoints::BehindPlaneLeftOut) {
+                        first_lost.get_or_insert((pixel, e));
+                    }
                     continue;
                 }
             };
@@ -191,7 +216,7 @@ fn rectangles(
             // A fisheye seeing more than 90 degrees off its axis there: without those points
             // the rectangles lose their border, and the camera matrix came out degenerate
             // (fx 1.3 against fy 2.6 for a 200-degree lens) instead of failing.
-            "it has no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image".to_string()
+            "it has no direction in front of the camera's image plane: the lens sees more than 90 degrees off its axis there, which an undistorted (pinhole) image cannot show, so no new camera matrix covers this image; alpha 0 (only valid pixels) keeps the part of the image within 90 degrees of the axis".to_string()
         };
         return Err(ExportError::invalid(
             "undistortion",
@@ -202,6 +227,17 @@ fn rectangles(
                 image_size.height,
                 first.x,
                 first.y
+            ),
+        ));
+    }
+    if policy == LostPoints::BehindPlaneLeftOut && lost_behind_plane && !inner.is_nonempty() {
+        return Err(ExportError::invalid(
+            "undistortion",
+            format!(
+                "{lost} of {} grid points over the {}x{} image look more than 90 degrees off the lens axis, so many that no rectangle of valid undistorted pixels is bounded (a whole border row or column of the image lies beyond 90 degrees): this lens has no undistorted (pinhole) image",
+                GRID * GRID,
+                image_size.width,
+                image_size.height
             ),
         ));
     }
@@ -245,7 +281,17 @@ pub fn optimal_new_camera_matrix(
 ) -> Result<(Matrix3<f64>, [u32; 4]), ExportError> {
     check_alpha(alpha)?;
     let (w, h) = (image_size.width as f64, image_size.height as f64);
-    let (inner, outer) = rectangles(camera, image_size, None, None, true)?;
+    // With alpha 0 only the inner rectangle counts, which points beyond 90 degrees off the
+    // axis of a wide fisheye do not bound: the undistorted image then crops to the rest.
+    let policy = if alpha == 0.0 {
+        LostPoints::BehindPlaneLeftOut
+    } else {
+        LostPoints::Refused
+    };
+    let (inner, mut outer) = rectangles(camera, image_size, None, None, policy)?;
+    if alpha == 0.0 {
+        outer = inner;
+    }
     let fx0 = (w - 1.0) / inner.width;
     let fy0 = (h - 1.0) / inner.height;
     let cx0 = -fx0 * inner.x;
@@ -286,10 +332,14 @@ mod tests {
 
     /// An equidistant lens with f = 200 px sees 91.5 degrees at the middle of the 640x480
     /// image's left and right edges and 114 degrees at its corners: no pinhole image holds that,
-    /// and the new camera matrix is refused instead of coming out degenerate; at f = 400 (46 and
-    /// 57 degrees) it is computed.
+    /// and the new camera matrix is refused instead of coming out degenerate (with alpha 0 too:
+    /// the whole left and right border columns lie beyond 90 degrees, so no rectangle of valid
+    /// pixels is bounded). At f = 230 only the corners do (99.6 degrees; 79.7 at the side
+    /// edges): alpha 1 is refused, alpha 0 crops to the part within 90 degrees (every corner of
+    /// the new image sees a pixel of the source image). At f = 400 (46 and 57 degrees) both are
+    /// computed.
     #[test]
-    fn a_fisheye_beyond_90_degrees_has_no_undistorted_camera() {
+    fn a_fisheye_beyond_90_degrees_has_only_a_cropped_undistorted_camera() {
         let fisheye = |f: f64| {
             AnyCamera::new(
                 CameraModel::KannalaBrandt4,
@@ -304,7 +354,30 @@ mod tests {
         };
         for alpha in [0.0, 1.0] {
             let err = optimal_new_camera_matrix(&fisheye(200.0), size, alpha).unwrap_err();
-            assert!(err.to_string().contains("more than 90 degrees"), "{err}");
+            assert!(err.to_string().contains("90 degrees"), "{alpha}: {err}");
+        }
+        let err = optimal_new_camera_matrix(&fisheye(230.0), size, 1.0).unwrap_err();
+        assert!(err.to_string().contains("more than 90 degrees"), "{err}");
+        assert!(err.to_string().contains("alpha 0"), "{err}");
+        let wide = fisheye(230.0);
+        let (k0, _) = optimal_new_camera_matrix(&wide, size, 0.0).unwrap();
+        let k0_inv = k0.try_inverse().unwrap();
+        for (u, v) in [
+            (0.0, 0.0),
+            (639.0, 0.0),
+            (0.0, 479.0),
+            (639.0, 479.0),
+            (0.0, 239.5),
+        ] {
+            let src = wide
+                .project_camera_point(&(k0_inv * Vector3::new(u, v, 1.0)))
+                .unwrap();
+            assert!(
+                src.x > -1.0 && src.x < 640.0 && src.y > -1.0 && src.y < 480.0,
+                "corner ({u}, {v}) sees {src}"
+            );
+        }
+        for alpha in [0.0, 1.0] {
             let (k, _) = optimal_new_camera_matrix(&fisheye(400.0), size, alpha).unwrap();
             assert!(
                 k[(0, 0)] > 50.0 && (k[(0, 0)] / k[(1, 1)] - 1.0).abs() < 0.5,
