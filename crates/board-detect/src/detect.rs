@@ -71,8 +71,36 @@ pub(crate) fn run(
         let ring = (1.6 * sigma).max(2.5);
         let cands = candidates::find(&blur, ring, 4000);
         let grids = grid::find_grids(&cands, &blur, &params);
+        let complete = grids
+            .iter()
+            .filter(|g| g.count() >= n && is_full(g.nu, g.nv, board))
+            .count();
+        if complete > 1 {
+            return Err(DetectError::SeveralBoards {
+                count: complete,
+                cols,
+                rows,
+            });
+        }
         for g in grids {
-            match complete_grid(g, &blur, ring, board) {
+            match complete_grid(g, &blur, ring, board).map_err(|(e, count)| {
+                // The growth stops one corner past the board's longer side: grow again,
+                // without the limit, to report the size of the grid that is there.
+                if matches!(e, DetectError::SizeMismatch { .. }) {
+                    let unlimited = GrowParams {
+                        max_side: MAX_REPORTED_SIDE,
+                        ..params
+                    };
+                    let largest = grid::find_grids(&cands, &blur, &unlimited)
+                        .into_iter()
+                        .next()
+                        .filter(|g| !fits(g.nu, g.nv, board));
+                    if let Some(g) = largest {
+                        return (size_mismatch(g.nu, g.nv, board), count);
+                    }
+                }
+                (e, count)
+            }) {
                 Ok(pts) => {
                     let scale = ff as f64;
                     let off = (scale - 1.0) / 2.0;
@@ -95,6 +123,46 @@ pub(crate) fn run(
     Err(best_err)
 }
 
+/// Largest grid side grown to report a [`DetectError::SizeMismatch`] (the largest board).
+const MAX_REPORTED_SIDE: usize = 1001;
+
+/// Whether an `a x b` grid fits inside the board (either way round).
+fn fits(a: usize, b: usize, board: &Board) -> bool {
+    (a <= board.cols && b <= board.rows) || (a <= board.rows && b <= board.cols)
+}
+
+/// Whether an `a x b` grid is the board's size (either way round).
+fn is_full(a: usize, b: usize, board: &Board) -> bool {
+    (a == board.cols && b == board.rows) || (a == board.rows && b == board.cols)
+}
+
+/// The mismatch of an `a x b` grid, its sides written in the board's order (`COLSxROWS`,
+/// the longer side first when `cols >= rows`), as `--board` would take it.
+fn size_mismatch(a: usize, b: usize, board: &Board) -> DetectError {
+    let (long, short) = (a.max(b), a.min(b));
+    let (found_cols, found_rows) = if board.cols >= board.rows {
+        (long, short)
+    } else {
+        (short, long)
+    };
+    DetectError::SizeMismatch {
+        found_cols,
+        found_rows,
+        cols: board.cols,
+        rows: board.rows,
+    }
+}
+
+/// Whether a grid smaller than the board is reported as a [`DetectError::PartialBoard`]
+/// rather than [`DetectError::NoBoard`]: at least half of the board's corners, at least 12,
+/// and at least 4 corners on each side (or the board's shorter side, if under 4). Smaller
+/// grids (a 3x3 seed grown by up to a third of a 9x6 board) are what textures and noise give.
+fn is_partial_board(g: &grid::Grid, board: &Board) -> bool {
+    let count = g.count();
+    count >= (board.cols * board.rows).div_ceil(2).max(12)
+        && g.nu.min(g.nv) >= board.cols.min(board.rows).min(4)
+}
+
 /// Checks the grid size, fills and verifies missing corners, labels. On failure returns the
 /// reason and the number of corners the grid had.
 fn complete_grid(
@@ -105,24 +173,17 @@ fn complete_grid(
 ) -> Result<Vec<P>, (DetectError, usize)> {
     let (cols, rows) = (board.cols, board.rows);
     let count = g.count();
-    let fits = |a: usize, b: usize| (a <= cols && b <= rows) || (a <= rows && b <= cols);
-    if !fits(g.nu, g.nv) {
-        return Err((
-            DetectError::SizeMismatch {
-                found_cols: g.nu,
-                found_rows: g.nv,
-                cols,
-                rows,
-            },
-            count,
-        ));
+    if !fits(g.nu, g.nv, board) {
+        return Err((size_mismatch(g.nu, g.nv, board), count));
     }
     let partial = |g: &grid::Grid| DetectError::PartialBoard {
         found: g.count(),
         expected: cols * rows,
     };
-    let full = (g.nu == cols && g.nv == rows) || (g.nu == rows && g.nv == cols);
-    if !full {
+    if !is_full(g.nu, g.nv, board) {
+        if !is_partial_board(&g, board) {
+            return Err((DetectError::NoBoard, 0));
+        }
         return Err((partial(&g), count));
     }
     if count < g.nu * g.nv {

@@ -56,7 +56,9 @@ pub enum DetectError {
     #[error("cannot decode image: {0}")]
     Decode(String),
 
-    /// No chessboard-like corner grid was found at all.
+    /// No chessboard-like corner grid was found, or only one with fewer than half of the
+    /// board's corners (or fewer than 12, or fewer than 4 on a side): what textures and noise
+    /// can give.
     #[error("no board found")]
     NoBoard,
 
@@ -71,7 +73,9 @@ pub enum DetectError {
     },
 
     /// The corner grid found is larger than the board in some direction, so it is a
-    /// different board (or two boards side by side) and cannot be labelled.
+    /// different board (or two boards side by side) and cannot be labelled. The found size is
+    /// written in the order of `--board COLSxROWS` (the longer side first when
+    /// `cols >= rows`).
     #[error(
         "board size mismatch: found a {found_cols}x{found_rows} corner grid, expected {cols}x{rows}"
     )]
@@ -83,6 +87,21 @@ pub enum DetectError {
         /// Expected inner corners per row.
         cols: usize,
         /// Expected inner corners per column.
+        rows: usize,
+    },
+
+    /// Two (or more) complete boards of the expected size are in the image: which one the
+    /// corners belong to would be a guess, so the image is refused. (A smaller or partial
+    /// second board does not count: the largest grid is labelled.)
+    #[error(
+        "{count} complete {cols}x{rows} boards in the image: show one board per image (or cover the others)"
+    )]
+    SeveralBoards {
+        /// Complete boards found (at least 2).
+        count: usize,
+        /// Inner corners per row.
+        cols: usize,
+        /// Inner corners per column.
         rows: usize,
     },
 

@@ -180,7 +180,8 @@ fn cell_value(img: &ImageF, a: P, b: P, c: P, d: P) -> f32 {
     )
 }
 
-/// The grids found, largest first (at most a few).
+/// The grids found, largest first (at most a few). Seeding goes on after a complete grid
+/// (`params.target` corners) until a second one or the seed limit.
 pub(crate) fn find_grids(cands: &[Candidate], img: &ImageF, params: &GrowParams) -> Vec<Grid> {
     let n = cands.len();
     if n < 9 {
@@ -191,11 +192,13 @@ pub(crate) fn find_grids(cands: &[Candidate], img: &ImageF, params: &GrowParams)
     let mut grids: Vec<Grid> = Vec::new();
     let search_r = (img.w.max(img.h) as f64 / 5.0).max(20.0);
     let mut tried = 0;
+    let mut complete_grids = 0;
+    let mut first_box: Option<[f64; 4]> = None;
     for s in 0..n {
         if tried >= params.max_seeds {
             break;
         }
-        if claimed[s] {
+        if claimed[s] || inside(&first_box, &cands[s]) {
             continue;
         }
         tried += 1;
@@ -214,15 +217,61 @@ pub(crate) fn find_grids(cands: &[Candidate], img: &ImageF, params: &GrowParams)
                 claimed[id] = true;
             }
         }
-        let done = g.count() >= params.target;
-        grids.push(g);
-        if done {
-            break;
+        let complete = g.count() >= params.target;
+        if complete {
+            complete_grids += 1;
+            // A second complete board is looked for among the seeds left, outside the first
+            // board, so that an image with two boards is refused rather than one of them
+            // picked by corner strength; not when too few candidates are left for one.
+            first_box = Some(bounding_box(&g));
+            let left = (0..n)
+                .filter(|&i| !claimed[i] && !inside(&first_box, &cands[i]))
+                .count();
+            if complete_grids > 1 || 2 * left < params.target {
+                grids.push(g);
+                break;
+            }
         }
+        grids.push(g);
     }
     grids.sort_by_key(|g| std::cmp::Reverse(g.count()));
     grids.truncate(3);
     grids
+}
+
+/// The grid's bounding box `[x0, y0, x1, y1]`, grown by its largest step between neighbours.
+fn bounding_box(g: &Grid) -> [f64; 4] {
+    let pts: Vec<P> = g.pts.iter().flatten().copied().collect();
+    let mut b = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
+    for p in &pts {
+        b = [
+            b[0].min(p[0]),
+            b[1].min(p[1]),
+            b[2].max(p[0]),
+            b[3].max(p[1]),
+        ];
+    }
+    let mut step: f64 = 0.0;
+    for v in 0..g.nv {
+        for u in 0..g.nu {
+            if let Some(p) = g.get(u, v) {
+                for q in [
+                    (u + 1 < g.nu).then(|| g.get(u + 1, v)).flatten(),
+                    (v + 1 < g.nv).then(|| g.get(u, v + 1)).flatten(),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    step = step.max(norm(sub(q, p)));
+                }
+            }
+        }
+    }
+    [b[0] - step, b[1] - step, b[2] + step, b[3] + step]
+}
+
+fn inside(b: &Option<[f64; 4]>, c: &Candidate) -> bool {
+    b.is_some_and(|b| c.x >= b[0] && c.x <= b[2] && c.y >= b[1] && c.y <= b[3])
 }
 
 /// A 3x3 seed around candidate `s`: two pairs of opposite neighbours and the four diagonal

@@ -80,8 +80,39 @@ fn decode<R: std::io::BufRead + std::io::Seek>(
     let mut limits = image::Limits::default();
     limits.max_alloc = Some((w as u64 * h as u64 * 8).saturating_add(64 << 20));
     image::ImageDecoder::set_limits(&mut decoder, limits).map_err(map_image_err)?;
-    let img = image::DynamicImage::from_decoder(decoder).map_err(map_image_err)?;
-    Ok(img.into_luma8())
+    // The EXIF orientation (JPEG, and PNG's eXIf chunk), applied as cv2.imread does: the
+    // image is turned upright, so its size and corners are those of the displayed picture.
+    // An unreadable EXIF block is ignored, as OpenCV ignores it.
+    let orientation = image::ImageDecoder::orientation(&mut decoder)
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(map_image_err)?;
+    img.apply_orientation(orientation);
+    Ok(to_gray8(img))
+}
+
+/// 8-bit grey from any decoded image. 16-bit images are scaled by their own largest value
+/// (`v * 255 / max`), not by 65535: a sensor's 10-, 12- or 14-bit data stored in 16 bits
+/// (values up to 1023, 4095, 16383) would otherwise keep only a few grey levels.
+fn to_gray8(img: image::DynamicImage) -> image::GrayImage {
+    use image::DynamicImage as D;
+    match img {
+        D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
+            let wide = img.into_luma16();
+            let max = wide.as_raw().iter().copied().max().unwrap_or(0);
+            let (w, h) = wide.dimensions();
+            let pixels = if max == 0 {
+                vec![0u8; wide.as_raw().len()]
+            } else {
+                let m = u32::from(max);
+                wide.as_raw()
+                    .iter()
+                    .map(|&v| ((u32::from(v) * 255 + m / 2) / m) as u8)
+                    .collect()
+            };
+            image::GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| image::GrayImage::new(w, h))
+        }
+        other => other.into_luma8(),
+    }
 }
 
 fn map_image_err(e: image::ImageError) -> DetectError {
@@ -107,13 +138,31 @@ pub struct ImageResult {
 }
 
 impl ImageResult {
-    /// The file name (last path component), as written in the observation files.
+    /// The file name (last path component).
     pub fn file_name(&self) -> String {
         self.path
             .file_name()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| self.path.display().to_string())
     }
+}
+
+/// The names the observation files and messages use for `results`: each file's name, or its
+/// path as given when another file of the list has the same name (`cam0/1.jpg` and
+/// `cam1/1.jpg`), so that every name says which file it is.
+pub fn image_names(results: &[ImageResult]) -> Vec<String> {
+    let names: Vec<String> = results.iter().map(ImageResult::file_name).collect();
+    names
+        .iter()
+        .zip(results)
+        .map(|(n, r)| {
+            if names.iter().filter(|m| *m == n).count() > 1 {
+                r.path.display().to_string()
+            } else {
+                n.clone()
+            }
+        })
+        .collect()
 }
 
 /// Decodes `path` and detects `board` in it, timing the detection alone.
@@ -192,41 +241,61 @@ fn points_json(p: &[[f64; 2]]) -> Value {
     Value::Array(p.iter().map(|q| json!([q[0], q[1]])).collect())
 }
 
-fn image_size_of<'a>(results: impl Iterator<Item = &'a ImageResult>) -> Option<[usize; 2]> {
-    let mut first = None;
-    for r in results {
-        if let (Ok(d), None) = (&r.outcome, first) {
-            first = Some(d.image_size);
-        }
+/// The size of the first image of `results` where the board was found, and that image's name.
+fn first_size<'a>(
+    results: &'a [ImageResult],
+    names: &'a [String],
+) -> Option<([usize; 2], &'a str)> {
+    results
+        .iter()
+        .zip(names)
+        .find_map(|(r, n)| r.outcome.as_ref().ok().map(|d| (d.image_size, n.as_str())))
+}
+
+/// The corners of one image, or why it cannot be used: no board, or a size other than the
+/// first image's of the same camera (`first`).
+fn usable(
+    r: &ImageResult,
+    first: Option<([usize; 2], &str)>,
+    camera: &str,
+) -> Result<Vec<[f64; 2]>, String> {
+    match (&r.outcome, first) {
+        (Ok(d), Some((size, _))) if d.image_size == size => Ok(d.corners.clone()),
+        (Ok(d), Some((size, name))) => Err(format!(
+            "image size {}x{} differs from {size_w}x{size_h} of {name}, the first {camera}image with a board (all images of a camera must have one size)",
+            d.image_size[0],
+            d.image_size[1],
+            size_w = size[0],
+            size_h = size[1],
+        )),
+        (Ok(d), None) => Ok(d.corners.clone()),
+        (Err(e), _) => Err(e.to_string()),
     }
-    first
 }
 
 /// The single-camera observation file (see `docs/formats.md`): `image_size` (of the first
-/// detected image), `views` with `image`, `object_points` and `image_points`,
-/// `rejected_images` with `image` and `reason` (also images whose size differs from the first),
-/// `detection_seconds_per_image` (median over the images that were decoded) and `board`.
+/// detected image), `views` with `image` ([`image_names`]), `object_points` and
+/// `image_points`, `rejected_images` with `image` and `reason` (also images whose size
+/// differs from the first), `detection_seconds_per_image` (median over the images that were
+/// decoded) and `board`.
 pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
-    let size = image_size_of(results.iter());
+    let names = image_names(results);
+    let first = first_size(results, &names);
     let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
     let mut views = Vec::new();
     let mut rejected = Vec::new();
-    for r in results {
-        match &r.outcome {
-            Ok(d) if Some(d.image_size) == size => views.push(json!({
-                "image": r.file_name(),
+    for (r, name) in results.iter().zip(&names) {
+        match usable(r, first, "") {
+            Ok(corners) => views.push(json!({
+                "image": name,
                 "object_points": obj.clone(),
-                "image_points": points_json(&d.corners),
+                "image_points": points_json(&corners),
             })),
-            Ok(d) => rejected.push(json!({
-                "image": r.file_name(),
-                "reason": format!("image size {}x{} differs from the first image's", d.image_size[0], d.image_size[1]),
-            })),
-            Err(e) => rejected.push(json!({"image": r.file_name(), "reason": e.to_string()})),
+            Err(reason) => rejected.push(json!({"image": name, "reason": reason})),
         }
     }
     json!({
-        "image_size": size,
+        "image_size": first.map(|f| f.0),
         "views": views,
         "rejected_images": rejected,
         "detection_seconds_per_image": median(results.iter().filter_map(|r| r.detection_seconds).collect()),
@@ -235,43 +304,46 @@ pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
 }
 
 /// The stereo observation file for paired lists (`left[i]` with `right[i]`; extra entries of
-/// the longer list are reported as unpaired): `image_size`, `pairs` with `left_image`,
-/// `right_image`, `object_points`, `left_points`, `right_points`; `rejected_pairs` with
-/// `left_image`, `right_image` and `reason` (a pair is dropped when either side fails);
-/// `detection_seconds_per_image` (median over both cameras) and `board`.
+/// the longer list are reported as unpaired): `image_size` (the left camera's, from its first
+/// image with a board), `right_image_size` (the right camera's, likewise; written when it
+/// differs from the left one's: the two cameras may have different resolutions), `pairs` with
+/// `left_image`, `right_image` ([`image_names`] of each camera), `object_points`,
+/// `left_points`, `right_points`; `rejected_pairs` with `left_image`, `right_image` and
+/// `reason` (a pair is dropped when either side fails, or an image's size differs from its
+/// own camera's first image's); `detection_seconds_per_image` (median over both cameras) and
+/// `board`.
 pub fn stereo_observations_json(
     left: &[ImageResult],
     right: &[ImageResult],
     board: &Board,
 ) -> Value {
-    let size = image_size_of(left.iter().chain(right.iter()));
+    let (left_names, right_names) = (image_names(left), image_names(right));
+    let left_first = first_size(left, &left_names);
+    let right_first = first_size(right, &right_names);
     let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
     let mut pairs = Vec::new();
     let mut rejected = Vec::new();
     let n = left.len().max(right.len());
     for i in 0..n {
         let (l, r) = (left.get(i), right.get(i));
-        let name = |x: Option<&ImageResult>| x.map(|x| x.file_name());
+        let (ln, rn) = (left_names.get(i), right_names.get(i));
         let (Some(l), Some(r)) = (l, r) else {
-            rejected.push(json!({"left_image": name(l), "right_image": name(r), "reason": "no image to pair with"}));
+            rejected.push(
+                json!({"left_image": ln, "right_image": rn, "reason": "no image to pair with"}),
+            );
             continue;
         };
-        let side = |x: &ImageResult| -> Result<Vec<[f64; 2]>, String> {
-            match &x.outcome {
-                Ok(d) if Some(d.image_size) == size => Ok(d.corners.clone()),
-                Ok(d) => Err(format!(
-                    "{}: image size {}x{} differs from the first image's",
-                    x.file_name(),
-                    d.image_size[0],
-                    d.image_size[1]
-                )),
-                Err(e) => Err(format!("{}: {e}", x.file_name())),
-            }
+        let (ln, rn) = (&left_names[i], &right_names[i]);
+        let side = |x: &ImageResult, name: &str, first, camera| {
+            usable(x, first, camera).map_err(|e| format!("{name}: {e}"))
         };
-        match (side(l), side(r)) {
+        match (
+            side(l, ln, left_first, "left "),
+            side(r, rn, right_first, "right "),
+        ) {
             (Ok(lp), Ok(rp)) => pairs.push(json!({
-                "left_image": l.file_name(),
-                "right_image": r.file_name(),
+                "left_image": ln,
+                "right_image": rn,
                 "object_points": obj.clone(),
                 "left_points": points_json(&lp),
                 "right_points": points_json(&rp),
@@ -279,18 +351,23 @@ pub fn stereo_observations_json(
             (a, b) => {
                 let reasons: Vec<String> = [a.err(), b.err()].into_iter().flatten().collect();
                 rejected.push(json!({
-                    "left_image": l.file_name(),
-                    "right_image": r.file_name(),
+                    "left_image": ln,
+                    "right_image": rn,
                     "reason": reasons.join("; "),
                 }));
             }
         }
     }
-    json!({
-        "image_size": size,
+    let mut file = json!({
+        "image_size": left_first.map(|f| f.0),
         "pairs": pairs,
         "rejected_pairs": rejected,
         "detection_seconds_per_image": median(left.iter().chain(right.iter()).filter_map(|r| r.detection_seconds).collect()),
         "board": board_json(board),
-    })
+    });
+    let right_size = right_first.map(|f| f.0);
+    if right_size.is_some() && right_size != left_first.map(|f| f.0) {
+        file["right_image_size"] = json!(right_size);
+    }
+    file
 }

@@ -264,7 +264,7 @@ pub fn detect(
 
 mod io;
 pub use io::{
-    ImageResult, decode_gray, detect_file, detect_files, detect_image, load_gray,
+    ImageResult, decode_gray, detect_file, detect_files, detect_image, image_names, load_gray,
     observations_json, stereo_observations_json,
 };
 pub mod synth;
