@@ -63,18 +63,20 @@ pub struct DetectArgs {
 }
 
 /// Detects the board in every image (in parallel, with a progress line on a terminal when there
-/// are more than a few images), drawing overlays if asked.
+/// are more than a few images), drawing overlays if asked (to `overlays[i]` for `paths[i]`).
 pub fn detect_all(
     paths: &[PathBuf],
     board: &Board,
-    args: &BoardArgs,
+    overlays: Option<&[PathBuf]>,
     threads: usize,
     label: &str,
 ) -> Result<Vec<ImageResult>, Failure> {
     use rayon::prelude::*;
-    if let Some(dir) = &args.draw {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| Failure(format!("--draw {}: {e}", dir.display())))?;
+    if let Some(overlays) = overlays {
+        for dir in overlays.iter().filter_map(|p| p.parent()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| Failure(format!("--draw {}: {e}", dir.display())))?;
+        }
     }
     let options = DetectOptions::default();
     let done = AtomicUsize::new(0);
@@ -83,10 +85,11 @@ pub fn detect_all(
     let run = || {
         paths
             .par_iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 let r = detect_file(p, board, &options);
-                if let Some(dir) = &args.draw {
-                    draw(dir, p, board, &r, &options);
+                if let Some(out) = overlays.and_then(|o| o.get(i)) {
+                    draw(out, p, board, &r, &options);
                 }
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 if progress {
@@ -111,17 +114,42 @@ pub fn detect_all(
     Ok(results)
 }
 
+/// The overlay file of every image of `cameras` (each a folder under `dir`, `""` for `dir`
+/// itself, and its images): `<folder>/<image stem>.png`, and when two images of a folder
+/// would get one name (`a/1.jpg` and `b/1.jpg`, or `x.jpg` and `x.png`) the later ones in
+/// input order get `<stem>-2.png`, `<stem>-3.png`, ... (names compared ignoring case, for
+/// file systems that do).
+pub fn overlay_paths(dir: &Path, cameras: &[(&str, &[PathBuf])]) -> Vec<Vec<PathBuf>> {
+    cameras
+        .iter()
+        .map(|(folder, paths)| {
+            let mut used = std::collections::HashSet::new();
+            paths
+                .iter()
+                .map(|path| {
+                    let stem = path
+                        .file_stem()
+                        .map(|s| s.to_string_lossy().into_owned())
+                        .unwrap_or_else(|| "image".into());
+                    let mut name = format!("{stem}.png");
+                    let mut k = 2;
+                    while !used.insert(name.to_lowercase()) {
+                        name = format!("{stem}-{k}.png");
+                        k += 1;
+                    }
+                    dir.join(folder).join(name)
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Writes the overlay of one image (a failure to draw is reported, not fatal).
-fn draw(dir: &Path, path: &Path, board: &Board, result: &ImageResult, options: &DetectOptions) {
+fn draw(out: &Path, path: &Path, board: &Board, result: &ImageResult, options: &DetectOptions) {
     let Ok(image) = board_detect::load_gray(path, options) else {
         return;
     };
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "image".into());
-    let out = dir.join(format!("{stem}.png"));
-    if let Err(e) = write_overlay_png(&out, &image, board, result.outcome.as_ref().ok()) {
+    if let Err(e) = write_overlay_png(out, &image, board, result.outcome.as_ref().ok()) {
         let _ = writeln!(
             std::io::stderr(),
             "calib: cannot draw {}: {e}",
@@ -134,6 +162,10 @@ fn draw(dir: &Path, path: &Path, board: &Board, result: &ImageResult, options: &
 pub fn summary(results: &[ImageResult], file: &Value) -> String {
     let found = results.iter().filter(|r| r.outcome.is_ok()).count();
     let mut out = format!("detected the board in {found} of {} images", results.len());
+    if let Some(pairs) = file["pairs"].as_array() {
+        let total = pairs.len() + file["rejected_pairs"].as_array().map_or(0, Vec::len);
+        out += &format!(", {} of {total} pairs usable", pairs.len());
+    }
     if let Some(t) = file["detection_seconds_per_image"].as_f64() {
         out += &format!(" ({:.2} ms per image)", t * 1e3);
     }
@@ -156,19 +188,65 @@ pub fn summary(results: &[ImageResult], file: &Value) -> String {
     out
 }
 
-/// Detects the board in single-camera images and returns the observation file.
+/// Fails when no image (no pair) has a usable board: with the count and the first reasons.
+fn require_views(file: &Value, count: usize, stereo: bool) -> Result<(), Failure> {
+    let (key, rejected_key) = if stereo {
+        ("pairs", "rejected_pairs")
+    } else {
+        ("views", "rejected_images")
+    };
+    if file[key].as_array().is_some_and(|v| !v.is_empty()) {
+        return Ok(());
+    }
+    let rejected: Vec<String> = file[rejected_key]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|r| {
+            let reason = r["reason"].as_str().unwrap_or("");
+            match r["image"].as_str() {
+                Some(name) => format!("{name}: {reason}"),
+                None => reason.to_string(),
+            }
+        })
+        .collect();
+    let shown = rejected
+        .iter()
+        .take(3)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join("; ");
+    let more = match rejected.len() {
+        n if n > 3 => format!("; and {} more", n - 3),
+        _ => String::new(),
+    };
+    Err(Failure(if stereo {
+        format!("no board found in both images of any of the {count} pairs ({shown}{more})")
+    } else {
+        format!("no board found in any of the {count} images ({shown}{more})")
+    }))
+}
+
+/// Detects the board in single-camera images and returns the observation file; fails when
+/// no image has the board.
 pub fn single_observations(
     paths: &[PathBuf],
     board: &Board,
     args: &BoardArgs,
     threads: usize,
 ) -> Result<(Vec<ImageResult>, Value), Failure> {
-    let results = detect_all(paths, board, args, threads, "")?;
+    let overlays = args
+        .draw
+        .as_ref()
+        .map(|dir| overlay_paths(dir, &[("", paths)]).remove(0));
+    let results = detect_all(paths, board, overlays.as_deref(), threads, "")?;
     let file = board_detect::observations_json(&results, board);
+    require_views(&file, paths.len(), false)?;
     Ok((results, file))
 }
 
-/// Detects the board in paired images and returns the stereo observation file.
+/// Detects the board in paired images and returns the stereo observation file; fails when no
+/// pair has the board in both images. Overlays go to `DIR/left/` and `DIR/right/`.
 pub fn stereo_observations(
     left: &[PathBuf],
     right: &[PathBuf],
@@ -183,12 +261,83 @@ pub fn stereo_observations(
             right.len()
         )));
     }
-    let l = detect_all(left, board, args, threads, "left ")?;
-    let r = detect_all(right, board, args, threads, "right ")?;
+    let overlays = args
+        .draw
+        .as_ref()
+        .map(|dir| overlay_paths(dir, &[("left", left), ("right", right)]));
+    let overlays_of = |k: usize| overlays.as_ref().map(|o| o[k].as_slice());
+    let l = detect_all(left, board, overlays_of(0), threads, "left ")?;
+    let r = detect_all(right, board, overlays_of(1), threads, "right ")?;
     let file = board_detect::stereo_observations_json(&l, &r, board);
+    require_views(&file, left.len(), true)?;
     let mut all = l;
     all.extend(r);
     Ok((all, file))
+}
+
+/// The images a calibration from photographs left out, for its result: the observation
+/// file's `rejected_images` (or `rejected_pairs`), and how many there were in all.
+pub struct Skipped {
+    /// `rejected_images` or `rejected_pairs`.
+    pub key: &'static str,
+    /// Its entries (`image` or `left_image` and `right_image`, and `reason`).
+    pub entries: Vec<Value>,
+    /// Images (pairs) given.
+    pub total: usize,
+}
+
+impl Skipped {
+    /// From an observation file written by [`single_observations`] or [`stereo_observations`].
+    pub fn from_file(file: &Value, total: usize) -> Self {
+        let key = if file.get("rejected_pairs").is_some() {
+            "rejected_pairs"
+        } else {
+            "rejected_images"
+        };
+        Skipped {
+            key,
+            entries: file[key].as_array().cloned().unwrap_or_default(),
+            total,
+        }
+    }
+
+    /// The `images-skipped` warning, or none when every image was used.
+    pub fn warning(&self) -> Option<calib_core::Warning> {
+        if self.entries.is_empty() {
+            return None;
+        }
+        let names: Vec<String> = self
+            .entries
+            .iter()
+            .map(|r| match r["image"].as_str() {
+                Some(name) => name.to_string(),
+                None => format!(
+                    "{} / {}",
+                    r["left_image"].as_str().unwrap_or("-"),
+                    r["right_image"].as_str().unwrap_or("-")
+                ),
+            })
+            .collect();
+        let shown = names.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
+        let more = match names.len() {
+            n if n > 5 => format!(" and {} more", n - 5),
+            _ => String::new(),
+        };
+        let what = if self.key == "rejected_pairs" {
+            "image pairs"
+        } else {
+            "images"
+        };
+        Some(calib_core::Warning::new(
+            calib_core::WarningCode::ImagesSkipped,
+            format!(
+                "{} of {} {what} left out, no usable board: {shown}{more} (reasons in the result's {}; retake them or check --board)",
+                names.len(),
+                self.total,
+                self.key
+            ),
+        ))
+    }
 }
 
 pub fn run(args: &DetectArgs) -> Result<(), Failure> {
@@ -210,9 +359,9 @@ pub fn run(args: &DetectArgs) -> Result<(), Failure> {
     } else {
         stereo_observations(&args.images, &args.right, &board, &args.board, args.threads)?
     };
-    write_json(&args.output, &file)?;
     if !args.quiet {
         let _ = write!(std::io::stderr(), "{}", summary(&results, &file));
     }
+    write_json(&args.output, &file)?;
     Ok(())
 }

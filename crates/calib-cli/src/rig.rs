@@ -169,12 +169,12 @@ pub fn run(args: &RigArgs) -> Result<(), Failure> {
     let observations = RigObservations::read_bounded(&args.input, args.output.max_input())?;
     let options = args.options(&observations)?;
     let source = args.input.clone();
-    let result = calibrate_and_report(&source, &[args.input.as_str()], &args.output, || {
+    let result = calibrate_and_report(&source, &[args.input.as_str()], &args.output, None, || {
         calibrate_rig(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::rig(&result, Some(&observations))?;
-        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+        crate::run::write_report(&input, dir, &args.output)?;
     }
     Ok(())
 }

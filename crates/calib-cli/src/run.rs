@@ -36,6 +36,25 @@ pub struct OutputArgs {
 }
 
 impl OutputArgs {
+    /// Whether the result JSON goes to standard output (`-o -`): the human text (summaries,
+    /// files written) then goes to standard error, so that standard output is the JSON alone.
+    pub fn json_to_stdout(&self) -> bool {
+        self.output.as_deref() == Some("-")
+    }
+
+    /// Prints human text (a summary): on standard output, or on standard error when the
+    /// JSON goes to standard output. Nothing when quiet.
+    pub fn print(&self, text: &str) -> Result<(), Failure> {
+        if self.quiet {
+            Ok(())
+        } else if self.json_to_stdout() {
+            let _ = write!(std::io::stderr(), "{text}");
+            Ok(())
+        } else {
+            print_stdout(text)
+        }
+    }
+
     /// The input size limit in bytes.
     pub fn max_input(&self) -> u64 {
         self.max_input_mb.saturating_mul(1 << 20)
@@ -114,6 +133,8 @@ pub trait Report {
     fn termination(&self) -> &Termination;
     /// The result's warnings.
     fn warnings(&self) -> &[calib_core::Warning];
+    /// The result's warnings, to add one.
+    fn warnings_mut(&mut self) -> &mut Vec<calib_core::Warning>;
     /// The human summary.
     fn summary(&self) -> String;
     /// The JSON form.
@@ -135,6 +156,9 @@ macro_rules! report_for {
             }
             fn warnings(&self) -> &[calib_core::Warning] {
                 &self.warnings
+            }
+            fn warnings_mut(&mut self) -> &mut Vec<calib_core::Warning> {
+                &mut self.warnings
             }
             fn summary(&self) -> String {
                 <$result>::summary(self)
@@ -163,13 +187,16 @@ report_for!(calib_rig::RigCalibration, Rig, calib_export::CameraRig);
 
 /// Runs `calibrate` `output.repeat` times (at least once), keeps the last result with the median
 /// wall time, and reports it: an error for a numerical failure, otherwise the summary on stdout
-/// (unless quiet; it lists the warnings), the warnings on stderr when quiet, and the JSON file
-/// (written atomically), then the exports (`--export`).
+/// (unless quiet; it lists the warnings; on stderr when the JSON goes to stdout), the warnings
+/// on stderr when quiet, and the JSON file (written atomically), then the exports (`--export`).
 /// `source` names the input in messages; `inputs` are the input files (never overwritten).
+/// `skipped`: the images a calibration from photographs left out, added to the result as the
+/// `images-skipped` warning and the JSON's `rejected_images` / `rejected_pairs`.
 pub fn calibrate_and_report<R: Report>(
     source: &str,
     inputs: &[&str],
     output: &OutputArgs,
+    skipped: Option<&crate::detect::Skipped>,
     mut calibrate: impl FnMut() -> Result<R, Failure>,
 ) -> Result<R, Failure> {
     let targets = crate::after::export_targets(&output.export)?;
@@ -186,8 +213,11 @@ pub fn calibrate_and_report<R: Report>(
     if let Termination::NumericalFailure(why) = result.termination() {
         return Err(Failure(format!("{source}: calibration failed: {why}")));
     }
+    if let Some(warning) = skipped.and_then(crate::detect::Skipped::warning) {
+        result.warnings_mut().push(warning);
+    }
     if !output.quiet {
-        print_stdout(&result.summary())?;
+        output.print(&result.summary())?;
     } else {
         for w in result.warnings() {
             let _ = writeln!(std::io::stderr(), "calib: {w}");
@@ -203,8 +233,34 @@ pub fn calibrate_and_report<R: Report>(
     if let Some(path) = &output.output {
         let mut json = result.to_json();
         json["elapsed_seconds_all"] = serde_json::json!(all);
+        if let Some(skipped) = skipped {
+            json[skipped.key] = Value::Array(skipped.entries.clone());
+        }
         write_json(path, &json)?;
     }
-    crate::after::write_rendered(&exports, output.quiet)?;
+    // With the JSON on stdout, the files written are listed on stderr.
+    crate::after::write_rendered(&exports, output.quiet || output.json_to_stdout())?;
+    if output.json_to_stdout() && !output.quiet {
+        for (path, _, format) in &exports {
+            let _ = writeln!(std::io::stderr(), "wrote {} ({format})", path.display());
+        }
+    }
     Ok(result)
+}
+
+/// Writes the `--report` folder, saying where (on stderr when the JSON goes to stdout).
+pub fn write_report(
+    input: &calib_export::ReportInput,
+    dir: &std::path::Path,
+    output: &OutputArgs,
+) -> Result<(), Failure> {
+    crate::after::write_report_to(input, dir, output.quiet || output.json_to_stdout())?;
+    if output.json_to_stdout() && !output.quiet {
+        let _ = writeln!(
+            std::io::stderr(),
+            "report: {}",
+            dir.join("index.html").display()
+        );
+    }
+    Ok(())
 }

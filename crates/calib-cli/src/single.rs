@@ -2,7 +2,7 @@
 
 use crate::detect::{self, BoardArgs};
 use crate::run::{OutputArgs, calibrate_and_report};
-use crate::{Failure, parse_list, print_stdout};
+use crate::{Failure, parse_list};
 use calib_core::JsonFile;
 use calib_core::OutlierRejection;
 use calib_single::{CalibrationOptions, FocalInit, Observations, calibrate};
@@ -319,7 +319,9 @@ pub struct SingleArgs {
 
 /// The observation file named by `inputs`, or the observations detected in the images `inputs`
 /// with `--board`; and a name for messages.
-fn observations(args: &SingleArgs) -> Result<(Observations, String), Failure> {
+fn observations(
+    args: &SingleArgs,
+) -> Result<(Observations, String, Option<detect::Skipped>), Failure> {
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     args.output.check_against(&inputs)?;
     match args.board.board()? {
@@ -327,11 +329,14 @@ fn observations(args: &SingleArgs) -> Result<(Observations, String), Failure> {
             let paths: Vec<PathBuf> = args.inputs.iter().map(PathBuf::from).collect();
             let (results, file) =
                 detect::single_observations(&paths, &board, &args.board, args.camera.threads)?;
-            if !args.output.quiet {
-                print_stdout(&detect::summary(&results, &file))?;
-            }
+            args.output.print(&detect::summary(&results, &file))?;
+            let skipped = detect::Skipped::from_file(&file, paths.len());
             let observations = Observations::from_file(serde_json::from_value(file)?);
-            Ok((observations, format!("{} images", args.inputs.len())))
+            Ok((
+                observations,
+                format!("{} images", args.inputs.len()),
+                Some(skipped),
+            ))
         }
         None => {
             let [path] = inputs.as_slice() else {
@@ -346,7 +351,7 @@ fn observations(args: &SingleArgs) -> Result<(Observations, String), Failure> {
                 )));
             }
             let observations = Observations::read_bounded(path, args.output.max_input())?;
-            Ok((observations, path.to_string()))
+            Ok((observations, path.to_string(), None))
         }
     }
 }
@@ -419,11 +424,9 @@ fn compare(args: &SingleArgs) -> Result<(), Failure> {
     let hold = camera.fix_names();
     check_fix_names(&hold, models, "compared model")?;
     let options = camera.options_without_fix(None)?;
-    let (observations, _) = observations(args)?;
+    let (observations, _, _) = observations(args)?;
     let comparison = calib_single::compare_models(&observations, &options, models, &hold);
-    if !args.output.quiet {
-        print_stdout(&comparison.table())?;
-    }
+    args.output.print(&comparison.table())?;
     if let Some(path) = &args.output.output {
         crate::write_json(path, &serde_json::to_value(&comparison)?)?;
     }
@@ -440,7 +443,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
             "--fix-intrinsics: give the intrinsics with --intrinsics FILE".into(),
         ));
     }
-    let (observations, source) = observations(args)?;
+    let (observations, source, skipped) = observations(args)?;
     if let Some(path) = args.camera.intrinsics_file()? {
         let camera = crate::after::read_single_camera(path, "--intrinsics")?;
         crate::after::check_image_size(
@@ -466,12 +469,12 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     let targets = crate::after::export_targets(&args.output.export)?;
     crate::after::check_export_models(&targets, &[options.model])?;
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
-    let result = calibrate_and_report(&source, &inputs, &args.output, || {
+    let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
         calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::single(&result, Some(&observations))?;
-        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+        crate::run::write_report(&input, dir, &args.output)?;
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 use crate::detect::{self, BoardArgs};
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::single::{CameraArgs, looks_like_image};
-use crate::{Failure, parse_list, print_stdout};
+use crate::{Failure, parse_list};
 use calib_core::JsonFile;
 use calib_stereo::{RigInit, StereoObservations, StereoOptions, calibrate_stereo};
 use camera_model::{AxisAngle, Intrinsics, Pose, RotationParameterization};
@@ -160,7 +160,9 @@ impl StereoArgs {
 }
 
 /// The stereo observations: the file named by `inputs`, or detected in the images.
-fn observations(args: &StereoArgs) -> Result<(StereoObservations, String), Failure> {
+fn observations(
+    args: &StereoArgs,
+) -> Result<(StereoObservations, String, Option<detect::Skipped>), Failure> {
     let inputs: Vec<&str> = args
         .inputs
         .iter()
@@ -184,11 +186,14 @@ fn observations(args: &StereoArgs) -> Result<(StereoObservations, String), Failu
                 &args.board,
                 args.camera.threads,
             )?;
-            if !args.output.quiet {
-                print_stdout(&detect::summary(&results, &file))?;
-            }
+            args.output.print(&detect::summary(&results, &file))?;
+            let skipped = detect::Skipped::from_file(&file, left.len());
             let observations = StereoObservations::from_file(serde_json::from_value(file)?);
-            Ok((observations, format!("{} image pairs", args.inputs.len())))
+            Ok((
+                observations,
+                format!("{} image pairs", args.inputs.len()),
+                Some(skipped),
+            ))
         }
         None => {
             let ([path], true) = (args.inputs.as_slice(), args.right.is_empty()) else {
@@ -202,7 +207,7 @@ fn observations(args: &StereoArgs) -> Result<(StereoObservations, String), Failu
                 )));
             }
             let observations = StereoObservations::read_bounded(path, args.output.max_input())?;
-            Ok((observations, path.clone()))
+            Ok((observations, path.clone(), None))
         }
     }
 }
@@ -268,7 +273,7 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
             "--fix-intrinsics: give the intrinsics with --intrinsics RIG or --left-intrinsics/--right-intrinsics".into(),
         ));
     }
-    let (observations, source) = observations(args)?;
+    let (observations, source, skipped) = observations(args)?;
     let sizes = [
         observations.image_size,
         observations.right_image_size.or(observations.image_size),
@@ -310,12 +315,12 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
         .chain(&args.right)
         .map(String::as_str)
         .collect();
-    let result = calibrate_and_report(&source, &inputs, &args.output, || {
+    let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
         calibrate_stereo(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;
-        crate::after::write_report_to(&input, dir, args.output.quiet)?;
+        crate::run::write_report(&input, dir, &args.output)?;
     }
     Ok(())
 }

@@ -1144,3 +1144,238 @@ fn stereo_holds_fixed_terms_per_camera_and_the_given_camera() {
         assert_eq!(json["left"][key], given["camera"][key], "{key}");
     }
 }
+
+/// Photographs as they come: two cameras of different resolutions, the JSON on standard
+/// output, folders without a board, repeated file names, and images left out of a
+/// calibration.
+#[test]
+fn photographs_of_mixed_cameras_names_and_failures() {
+    use board_detect::image::{self, imageops};
+    let left: Vec<String> = (1..=6)
+        .map(|i| data(&format!("sourishg1/images/left{i}.jpg")))
+        .collect();
+    // The right camera at 1280x720 (the bundled right images, enlarged, as PNG).
+    let big = temp("big");
+    std::fs::create_dir_all(&big).unwrap();
+    let right: Vec<String> = (1..=6)
+        .map(|i| {
+            let img = image::open(data(&format!("sourishg1/images/right{i}.jpg"))).unwrap();
+            let path = big.join(format!("right{i}.png"));
+            imageops::resize(&img.to_luma8(), 1280, 720, imageops::FilterType::Triangle)
+                .save(&path)
+                .unwrap();
+            path.to_string_lossy().into_owned()
+        })
+        .collect();
+
+    // Stereo with `-o -`: standard output is the JSON alone, the summary is on stderr.
+    let run = run_ok(
+        calib()
+            .args(["stereo", "--board", "9x6", "--square", "24.23"])
+            .args(&left)
+            .arg("--right")
+            .args(&right)
+            .args(["-o", "-"]),
+    );
+    let result: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap_or_else(|e| {
+        panic!(
+            "stdout is not JSON ({e}): {}",
+            String::from_utf8_lossy(&run.stdout)
+        )
+    });
+    assert_eq!(result["num_pairs"], 6);
+    assert_eq!(result["left"]["image_size"], serde_json::json!([640, 360]));
+    assert_eq!(
+        result["right"]["image_size"],
+        serde_json::json!([1280, 720])
+    );
+    let fx = |cam: &str| result[cam]["fx"].as_f64().unwrap();
+    assert!(
+        (fx("right") / fx("left") - 2.0).abs() < 0.1,
+        "{} {}",
+        fx("left"),
+        fx("right")
+    );
+    assert!(String::from_utf8_lossy(&run.stderr).contains("6 of 6 pairs usable"));
+    let obs = temp("mixed-stereo.json");
+    run_ok(
+        calib()
+            .args(["detect", "-q", "--board", "9x6"])
+            .args(&left)
+            .arg("--right")
+            .args(&right)
+            .arg("-o")
+            .arg(&obs),
+    );
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&obs).unwrap()).unwrap();
+    assert_eq!(file["pairs"].as_array().unwrap().len(), 6);
+    assert_eq!(file["right_image_size"], serde_json::json!([1280, 720]));
+
+    // Single camera with `-o -` and an export: the JSON alone on stdout.
+    let yaml = temp("mixed-left.yaml");
+    let run = run_ok(
+        calib()
+            .args(["single", "--board", "9x6"])
+            .args(&left)
+            .args(["-o", "-", "--export"])
+            .arg(format!("opencv={}", yaml.display())),
+    );
+    let result: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(result["num_views"], 6);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("focal length") && stderr.contains("wrote"),
+        "{stderr}"
+    );
+
+    // No board anywhere: exit 1 with the count and the reasons, and an existing output kept.
+    let blank = temp("mixed-blank.png");
+    image::GrayImage::from_pixel(64, 48, image::Luma([128]))
+        .save(&blank)
+        .unwrap();
+    let missing = temp("no-such-image.jpg");
+    let kept = temp("kept.json");
+    std::fs::write(&kept, "{\"kept\": true}\n").unwrap();
+    let run = calib()
+        .args(["detect", "--board", "9x6"])
+        .arg(&blank)
+        .arg(&missing)
+        .arg("-o")
+        .arg(&kept)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&run.stderr);
+    for part in [
+        "no board found in any of the 2 images",
+        "mixed-blank.png: no board found",
+        "no-such-image.jpg: cannot read",
+    ] {
+        assert!(message.contains(part), "{message}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(&kept).unwrap(),
+        "{\"kept\": true}\n"
+    );
+    let run = calib()
+        .args(["single", "--board", "9x6"])
+        .arg(&missing)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        message.contains("no board found in any of the 1 images")
+            && message.contains("cannot read")
+            && !message.contains("principal point"),
+        "{message}"
+    );
+
+    // Images of one name from two folders (and x.jpg beside x.png): an overlay each, and
+    // names in the observation file that tell them apart.
+    let (cam0, cam1) = (temp("cam0"), temp("cam1"));
+    std::fs::create_dir_all(&cam0).unwrap();
+    std::fs::create_dir_all(&cam1).unwrap();
+    let mut same_left = Vec::new();
+    let mut same_right = Vec::new();
+    for i in 1..=2 {
+        let (l, r) = (cam0.join(format!("{i}.jpg")), cam1.join(format!("{i}.jpg")));
+        std::fs::copy(&left[i - 1], &l).unwrap();
+        std::fs::copy(data(&format!("sourishg1/images/right{i}.jpg")), &r).unwrap();
+        same_left.push(l);
+        same_right.push(r);
+    }
+    let draw = temp("mixed-drawn");
+    run_ok(
+        calib()
+            .args(["detect", "-q", "--board", "9x6"])
+            .args(&same_left)
+            .arg("--right")
+            .args(&same_right)
+            .arg("-o")
+            .arg(temp("same-names.json"))
+            .arg("--draw")
+            .arg(&draw),
+    );
+    for name in ["left/1.png", "left/2.png", "right/1.png", "right/2.png"] {
+        assert!(draw.join(name).exists(), "{name}");
+    }
+    let x_png = temp("x.png");
+    image::open(&left[0]).unwrap().save(&x_png).unwrap();
+    let x_jpg = temp("x.jpg");
+    std::fs::copy(&left[1], &x_jpg).unwrap();
+    let single_draw = temp("mixed-drawn-single");
+    run_ok(
+        calib()
+            .args(["detect", "-q", "--board", "9x6"])
+            .arg(&x_jpg)
+            .arg(&x_png)
+            .arg(&same_left[0])
+            .arg(cam1.join("1.jpg"))
+            .arg("-o")
+            .arg(temp("x.json"))
+            .arg("--draw")
+            .arg(&single_draw),
+    );
+    for name in ["x.png", "x-2.png", "1.png", "1-2.png"] {
+        assert!(single_draw.join(name).exists(), "{name}");
+    }
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(temp("x.json")).unwrap()).unwrap();
+    let names: Vec<&str> = file["views"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["image"].as_str().unwrap())
+        .collect();
+    assert_eq!(names[..2], ["x.jpg", "x.png"]);
+    assert!(
+        names[2].ends_with("cam0/1.jpg") && names[3].ends_with("cam1/1.jpg"),
+        "{names:?}"
+    );
+
+    // Images left out of a calibration are in the result and warned about, also with -q.
+    let out = temp("mixed-skipped.json");
+    let run = run_ok(
+        calib()
+            .args(["single", "-q", "--board", "9x6"])
+            .args(&left)
+            .arg(&blank)
+            .arg("-o")
+            .arg(&out),
+    );
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("[images-skipped]: 1 of 7 images"),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(result["warnings"][0]["code"], "images-skipped");
+    assert_eq!(result["rejected_images"][0]["image"], "mixed-blank.png");
+    assert_eq!(result["rejected_images"][0]["reason"], "no board found");
+    let out = temp("mixed-skipped-stereo.json");
+    let mut right_blank = right.clone();
+    right_blank[5] = blank.to_string_lossy().into_owned();
+    run_ok(
+        calib()
+            .args(["stereo", "-q", "--board", "9x6"])
+            .args(&left)
+            .arg("--right")
+            .args(&right_blank)
+            .arg("-o")
+            .arg(&out),
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(result["num_pairs"], 5);
+    assert!(
+        result["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["code"] == "images-skipped")
+    );
+    assert_eq!(result["rejected_pairs"][0]["left_image"], "left6.jpg");
+}

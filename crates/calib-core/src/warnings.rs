@@ -30,6 +30,9 @@ pub enum WarningCode {
     PoorCoverage,
     /// A lens model is not valid over the whole image (not monotonic, denominator near zero).
     ModelInvalid,
+    /// Images (or stereo pairs) given to calibrate from photographs were left out: the board
+    /// was not found in them (the result lists them with the reasons).
+    ImagesSkipped,
     /// A code written by a newer version.
     #[serde(other)]
     Other,
@@ -49,6 +52,7 @@ impl WarningCode {
             WarningCode::ShortBaseline => "short-baseline",
             WarningCode::PoorCoverage => "poor-coverage",
             WarningCode::ModelInvalid => "model-invalid",
+            WarningCode::ImagesSkipped => "images-skipped",
             WarningCode::Other => "other",
         }
     }
