@@ -3,7 +3,7 @@
 //! `docs/after-calibration.md`).
 
 use crate::run::check_not_input;
-use crate::{Failure, print_stdout, write_json};
+use crate::{Failure, Say, print_stdout, write_json};
 use calib_export::remap::{read_image, write_image};
 use calib_export::{
     Calibrated, CameraCalibration, ExportOptions, Format, PixelMap, export, export_paths,
@@ -103,13 +103,11 @@ pub fn check_export_models(
 
 /// Writes rendered exports ([`render_exports`]), each file atomically; prints the files written
 /// unless quiet.
-pub fn write_rendered(files: &[(PathBuf, String, Format)], quiet: bool) -> Result<(), Failure> {
+pub fn write_rendered(files: &[(PathBuf, String, Format)], say: Say) -> Result<(), Failure> {
     for (path, text, format) in files {
         calib_core::write_atomically(path, text.as_bytes())
             .map_err(|e| Failure(format!("--export {format}={}: {e}", path.display())))?;
-        if !quiet {
-            print_stdout(&format!("wrote {} ({format})\n", path.display()))?;
-        }
+        say.text(&format!("wrote {} ({format})\n", path.display()))?;
     }
     Ok(())
 }
@@ -308,7 +306,7 @@ pub struct ExportArgs {
     /// OpenCV's M1 ... Q, ROS's rectified left and right files.
     #[arg(long, value_name = "LEFT,RIGHT")]
     pub pair: Option<String>,
-    /// File to write.
+    /// File to write ("-" for standard output, when the export is one file).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
     /// Free scaling of the rectification (stereo) and of ROS's projection matrix: 0 (only valid
@@ -354,6 +352,19 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
         args.pair.as_deref(),
         &args.input,
     )?;
+    if args.output.as_os_str() == "-" {
+        // Standard output: one file's text only (a ROS stereo pair or rig is several files).
+        let texts = export_texts(&calibrated, format, &options)
+            .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+        let [text] = texts.as_slice() else {
+            return Err(Failure(format!(
+                "-o -: the {format} export of {} is {} files; give a file name (each camera gets a file named from it)",
+                args.input,
+                texts.len()
+            )));
+        };
+        return print_stdout(text);
+    }
     for path in export_paths(&calibrated, format, &args.output) {
         check_not_input(&path.to_string_lossy(), &[&args.input])?;
     }
@@ -680,9 +691,15 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
             remap_all(&right, right_out, &right_map)
         })?;
     }
-    if !args.quiet {
+    let say = match (args.quiet, args.output.as_deref()) {
+        (true, _) => Say::Nothing,
+        // The JSON alone on standard output.
+        (false, Some("-")) => Say::Stderr,
+        (false, _) => Say::Stdout,
+    };
+    if say != Say::Nothing {
         let t = (rect.p2[(0, 3)].abs() + rect.p2[(1, 3)].abs()) / rect.p2[(0, 0)];
-        print_stdout(&format!(
+        say.text(&format!(
             "rectified: f = {:.3} px, principal point ({:.3}, {:.3}), baseline {:.4} (board units), valid regions {:?} {:?}{}\n",
             rect.p1[(0, 0)],
             rect.p1[(0, 2)],
@@ -704,22 +721,19 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Writes a report, printing where unless quiet.
+/// Writes a report, saying where.
 pub fn write_report_to(
     input: &calib_export::ReportInput,
     dir: &Path,
-    quiet: bool,
+    say: Say,
 ) -> Result<(), Failure> {
     let written = calib_export::write_report(input, dir)
         .map_err(|e| Failure(format!("--report {}: {e}", dir.display())))?;
-    if !quiet {
-        print_stdout(&format!(
-            "report: {} ({} files)\n",
-            dir.join("index.html").display(),
-            written.len()
-        ))?;
-    }
-    Ok(())
+    say.text(&format!(
+        "report: {} ({} files)\n",
+        dir.join("index.html").display(),
+        written.len()
+    ))
 }
 
 /// Arguments of `calib report`.
@@ -782,7 +796,15 @@ pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
             "{name}: not a calib single, calib stereo or calib rig result (format '{format}')"
         )))
     }?;
-    write_report_to(&input, &args.output, args.quiet)
+    write_report_to(
+        &input,
+        &args.output,
+        if args.quiet {
+            Say::Nothing
+        } else {
+            Say::Stdout
+        },
+    )
 }
 
 /// The report of the result `value` (from file `name`) with its observation file, if given.

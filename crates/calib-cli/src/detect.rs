@@ -54,8 +54,8 @@ pub struct DetectArgs {
     /// Observation file to write ("-" for stdout).
     #[arg(short, long, value_name = "OBS.json")]
     pub output: String,
-    /// Threads (0 = all cores).
-    #[arg(long, default_value_t = 0)]
+    /// Threads (0 = all cores, at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// No summary line.
     #[arg(short, long)]

@@ -104,6 +104,30 @@ pub fn print_stdout(text: &str) -> Result<(), Failure> {
         .map_err(|e| Failure(format!("cannot write to standard output: {e}")))
 }
 
+/// Where a command's human lines (summaries, files written) go: standard output, standard
+/// error (when the result JSON itself goes to standard output, `-o -`), or nowhere (`-q`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Say {
+    Stdout,
+    Stderr,
+    Nothing,
+}
+
+impl Say {
+    /// Prints `text` where this says.
+    pub fn text(self, text: &str) -> Result<(), Failure> {
+        match self {
+            Say::Stdout => print_stdout(text),
+            Say::Stderr => {
+                use std::io::Write;
+                let _ = std::io::stderr().write_all(text.as_bytes());
+                Ok(())
+            }
+            Say::Nothing => Ok(()),
+        }
+    }
+}
+
 /// Parses `a,b,c` into numbers.
 pub fn parse_list(text: &str, expected: usize, what: &str) -> Result<Vec<f64>, Failure> {
     let items: Vec<&str> = text.split(',').map(str::trim).collect();

@@ -174,7 +174,7 @@ pub fn run(args: &RigArgs) -> Result<(), Failure> {
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::rig(&result, Some(&observations))?;
-        crate::run::write_report(&input, dir, &args.output)?;
+        crate::after::write_report_to(&input, dir, args.output.say())?;
     }
     Ok(())
 }

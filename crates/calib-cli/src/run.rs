@@ -1,7 +1,7 @@
 //! What `calib single` and `calib stereo` share once the options are built: repeated runs for
 //! warm timings, failure and warning reporting, the summary and the JSON output.
 
-use crate::{Failure, print_stdout, write_json};
+use crate::{Failure, Say, write_json};
 use clap::Args;
 use lm_solver::Termination;
 use serde_json::Value;
@@ -42,16 +42,15 @@ impl OutputArgs {
         self.output.as_deref() == Some("-")
     }
 
-    /// Prints human text (a summary): on standard output, or on standard error when the
-    /// JSON goes to standard output. Nothing when quiet.
-    pub fn print(&self, text: &str) -> Result<(), Failure> {
+    /// Where human text (summaries, files written) goes: standard output, or standard error
+    /// when the JSON goes to standard output; nowhere when quiet.
+    pub fn say(&self) -> Say {
         if self.quiet {
-            Ok(())
+            Say::Nothing
         } else if self.json_to_stdout() {
-            let _ = write!(std::io::stderr(), "{text}");
-            Ok(())
+            Say::Stderr
         } else {
-            print_stdout(text)
+            Say::Stdout
         }
     }
 
@@ -217,7 +216,7 @@ pub fn calibrate_and_report<R: Report>(
         result.warnings_mut().push(warning);
     }
     if !output.quiet {
-        output.print(&result.summary())?;
+        output.say().text(&result.summary())?;
     } else {
         for w in result.warnings() {
             let _ = writeln!(std::io::stderr(), "calib: {w}");
@@ -238,29 +237,6 @@ pub fn calibrate_and_report<R: Report>(
         }
         write_json(path, &json)?;
     }
-    // With the JSON on stdout, the files written are listed on stderr.
-    crate::after::write_rendered(&exports, output.quiet || output.json_to_stdout())?;
-    if output.json_to_stdout() && !output.quiet {
-        for (path, _, format) in &exports {
-            let _ = writeln!(std::io::stderr(), "wrote {} ({format})", path.display());
-        }
-    }
+    crate::after::write_rendered(&exports, output.say())?;
     Ok(result)
-}
-
-/// Writes the `--report` folder, saying where (on stderr when the JSON goes to stdout).
-pub fn write_report(
-    input: &calib_export::ReportInput,
-    dir: &std::path::Path,
-    output: &OutputArgs,
-) -> Result<(), Failure> {
-    crate::after::write_report_to(input, dir, output.quiet || output.json_to_stdout())?;
-    if output.json_to_stdout() && !output.quiet {
-        let _ = writeln!(
-            std::io::stderr(),
-            "report: {}",
-            dir.join("index.html").display()
-        );
-    }
-    Ok(())
 }

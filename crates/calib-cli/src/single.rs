@@ -329,7 +329,7 @@ fn observations(
             let paths: Vec<PathBuf> = args.inputs.iter().map(PathBuf::from).collect();
             let (results, file) =
                 detect::single_observations(&paths, &board, &args.board, args.camera.threads)?;
-            args.output.print(&detect::summary(&results, &file))?;
+            args.output.say().text(&detect::summary(&results, &file))?;
             let skipped = detect::Skipped::from_file(&file, paths.len());
             let observations = Observations::from_file(serde_json::from_value(file)?);
             Ok((
@@ -426,7 +426,7 @@ fn compare(args: &SingleArgs) -> Result<(), Failure> {
     let options = camera.options_without_fix(None)?;
     let (observations, _, _) = observations(args)?;
     let comparison = calib_single::compare_models(&observations, &options, models, &hold);
-    args.output.print(&comparison.table())?;
+    args.output.say().text(&comparison.table())?;
     if let Some(path) = &args.output.output {
         crate::write_json(path, &serde_json::to_value(&comparison)?)?;
     }
@@ -474,7 +474,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::single(&result, Some(&observations))?;
-        crate::run::write_report(&input, dir, &args.output)?;
+        crate::after::write_report_to(&input, dir, args.output.say())?;
     }
     Ok(())
 }

@@ -186,7 +186,7 @@ fn observations(
                 &args.board,
                 args.camera.threads,
             )?;
-            args.output.print(&detect::summary(&results, &file))?;
+            args.output.say().text(&detect::summary(&results, &file))?;
             let skipped = detect::Skipped::from_file(&file, left.len());
             let observations = StereoObservations::from_file(serde_json::from_value(file)?);
             Ok((
@@ -320,7 +320,7 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;
-        crate::run::write_report(&input, dir, &args.output)?;
+        crate::after::write_report_to(&input, dir, args.output.say())?;
     }
     Ok(())
 }

@@ -708,6 +708,27 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&run.stderr).contains("2 left and 1 right images"));
+    // `-o -`: the JSON (or the one exported file) alone on standard output.
+    let run = run_ok(calib().arg("rectify").arg(&rig).args(["-o", "-"]));
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert!(json["P1"].is_array());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("rectified: f ="));
+    let run = run_ok(
+        calib()
+            .arg("export")
+            .arg(&single)
+            .args(["--format", "opencv", "-o", "-"]),
+    );
+    assert!(String::from_utf8_lossy(&run.stdout).starts_with("%YAML:1.0"));
+    let err = refused(&[
+        "export",
+        &rig.to_string_lossy(),
+        "--format",
+        "ros",
+        "-o",
+        "-",
+    ]);
+    assert!(err.contains("2 files"), "{err}");
     // The pair the other way round: the inverse transform.
     let reversed = temp("after-rect-reversed.json");
     run_ok(
