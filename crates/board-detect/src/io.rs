@@ -90,29 +90,53 @@ fn decode<R: std::io::BufRead + std::io::Seek>(
     Ok(to_gray8(img))
 }
 
-/// 8-bit grey from any decoded image. 16-bit images are scaled by their own largest value
-/// (`v * 255 / max`), not by 65535: a sensor's 10-, 12- or 14-bit data stored in 16 bits
-/// (values up to 1023, 4095, 16383) would otherwise keep only a few grey levels.
+/// 8-bit grey from any decoded image. 16-bit images are stretched from their 0.1th to their
+/// 99.9th percentile, not scaled by 65535: a sensor's 10-, 12- or 14-bit data stored in 16 bits
+/// (values up to 1023, 4095, 16383), possibly on a pedestal, would otherwise keep only a few
+/// grey levels, and the percentiles (rather than the extremes) keep a few hot pixels from
+/// crushing the rest.
 fn to_gray8(img: image::DynamicImage) -> image::GrayImage {
     use image::DynamicImage as D;
     match img {
         D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
             let wide = img.into_luma16();
-            let max = wide.as_raw().iter().copied().max().unwrap_or(0);
             let (w, h) = wide.dimensions();
-            let pixels = if max == 0 {
-                vec![0u8; wide.as_raw().len()]
-            } else {
-                let m = u32::from(max);
-                wide.as_raw()
-                    .iter()
-                    .map(|&v| ((u32::from(v) * 255 + m / 2) / m) as u8)
-                    .collect()
-            };
+            let (lo, hi) = percentile_range(wide.as_raw());
+            let span = u32::from(hi - lo).max(1);
+            let pixels = wide
+                .as_raw()
+                .iter()
+                .map(|&v| {
+                    let above = u32::from(v.clamp(lo, hi) - lo);
+                    ((above * 255 + span / 2) / span) as u8
+                })
+                .collect();
             image::GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| image::GrayImage::new(w, h))
         }
         other => other.into_luma8(),
     }
+}
+
+/// The 0.1th and 99.9th percentiles of 16-bit values (from a histogram; equal for a flat
+/// image).
+fn percentile_range(values: &[u16]) -> (u16, u16) {
+    let mut histogram = vec![0usize; 1 << 16];
+    for &v in values {
+        histogram[usize::from(v)] += 1;
+    }
+    // The smallest value with more than `rank` values at or below it.
+    let value_at = |rank: usize| {
+        let mut seen = 0;
+        for (v, &n) in histogram.iter().enumerate() {
+            seen += n;
+            if seen > rank {
+                return v as u16;
+            }
+        }
+        u16::MAX
+    };
+    let n = values.len();
+    (value_at(n / 1000), value_at(n - 1 - n / 1000))
 }
 
 fn map_image_err(e: image::ImageError) -> DetectError {

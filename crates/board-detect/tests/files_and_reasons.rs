@@ -36,23 +36,40 @@ fn max_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
 }
 
 /// A sensor's 12-bit data in a 16-bit PNG (values 0..=4080, as many machine-vision cameras
-/// write): the board is found where the 8-bit photograph has it.
+/// write), also with three hot pixels at 65535 and on a pedestal of 60000: the board is found
+/// where the 8-bit photograph has it. (Scaling by the largest value lost the board to one hot
+/// pixel, and to the pedestal.)
 #[test]
 fn twelve_bit_data_in_a_sixteen_bit_png_is_found() {
     let gray = left1();
     let (w, h) = gray.dimensions();
-    let wide: Vec<u16> = gray.as_raw().iter().map(|&v| u16::from(v) << 4).collect();
-    let mut bytes = Vec::new();
-    let raw: Vec<u8> = wide.iter().flat_map(|v| v.to_ne_bytes()).collect();
-    image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(&raw, w, h, image::ExtendedColorType::L16)
-        .unwrap();
-    let decoded = decode_gray(&bytes, &DetectOptions::default()).unwrap();
-    let max = decoded.as_raw().iter().copied().max().unwrap();
-    assert!(max >= 250, "12-bit data decoded to at most {max} of 255");
-    let twelve = found(&decoded, &board()).expect("the 12-bit image has the board");
     let eight = found(&gray, &board()).unwrap();
-    assert!(max_distance(&twelve.corners, &eight.corners) < 0.1);
+    let twelve_bit: Vec<u16> = gray.as_raw().iter().map(|&v| u16::from(v) << 4).collect();
+    let mut hot = twelve_bit.clone();
+    for i in [1000, 50_000, 120_000] {
+        hot[i] = u16::MAX;
+    }
+    let pedestal: Vec<u16> = twelve_bit.iter().map(|&v| v + 60_000).collect();
+    for (what, wide) in [
+        ("12-bit", twelve_bit),
+        ("hot pixels", hot),
+        ("pedestal", pedestal),
+    ] {
+        let mut bytes = Vec::new();
+        let raw: Vec<u8> = wide.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        image::codecs::png::PngEncoder::new(&mut bytes)
+            .write_image(&raw, w, h, image::ExtendedColorType::L16)
+            .unwrap();
+        let decoded = decode_gray(&bytes, &DetectOptions::default()).unwrap();
+        let max = decoded.as_raw().iter().copied().max().unwrap();
+        assert!(max >= 250, "{what}: decoded to at most {max} of 255");
+        let corners = found(&decoded, &board())
+            .unwrap_or_else(|e| panic!("{what}: the board is not found: {e}"));
+        assert!(
+            max_distance(&corners.corners, &eight.corners) < 0.1,
+            "{what}"
+        );
+    }
 }
 
 /// A JPEG whose EXIF orientation is 6 (turn 90 degrees clockwise to display), as phones write

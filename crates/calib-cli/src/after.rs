@@ -40,6 +40,12 @@ pub fn export_targets(values: &[String]) -> Result<Vec<ExportTarget>, Failure> {
             if path.is_empty() {
                 return Err(Failure(format!("--export {v}: the file name is empty")));
             }
+            if path == "-" {
+                // Standard output holds the summary or the -o - result already.
+                return Err(Failure(format!(
+                    "--export {v}: give a file name (calib export RESULT --format {format} -o - prints an export)"
+                )));
+            }
             Ok(ExportTarget {
                 format,
                 path: PathBuf::from(path),
@@ -597,7 +603,8 @@ pub struct RectifyArgs {
     /// Right images to rectify.
     #[arg(long, num_args = 1.., value_name = "RIGHT")]
     pub right: Vec<PathBuf>,
-    /// Folder for the rectified images (each keeps its input file name).
+    /// Folder for the rectified images: DIR/left/ and DIR/right/, each image keeping its input
+    /// file name.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Threads (0 = all cores, at most 1024).
@@ -676,19 +683,25 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
             .collect();
         inputs.push(args.input.clone());
         let input_refs: Vec<&str> = inputs.iter().map(String::as_str).collect();
-        let all: Vec<&PathBuf> = args.images.iter().chain(&args.right).collect();
-        let outputs = output_paths(&all, dir, &input_refs)?;
-        let (left_out, right_out) = outputs.split_at(args.images.len());
         let left: Vec<&PathBuf> = args.images.iter().collect();
         let right: Vec<&PathBuf> = args.right.iter().collect();
+        // One folder per camera: the two cameras' images often share names (cam0/0001.png,
+        // cam1/0001.png), as `calib detect --draw` keeps them apart too.
+        let (left_dir, right_dir) = (dir.join("left"), dir.join("right"));
+        let left_out = output_paths(&left, &left_dir, &input_refs)?;
+        let right_out = output_paths(&right, &right_dir, &input_refs)?;
+        for d in [&left_dir, &right_dir] {
+            std::fs::create_dir_all(d)
+                .map_err(|e| Failure(format!("--out {}: {e}", d.display())))?;
+        }
         let k = rect.camera_matrix();
         with_threads(args.threads, || {
             let left_map = PixelMap::new(&rig.left, &rect.r1, &k, rect.image_size)
                 .map_err(|e| Failure(e.to_string()))?;
-            remap_all(&left, left_out, &left_map)?;
+            remap_all(&left, &left_out, &left_map)?;
             let right_map = PixelMap::new(&rig.right, &rect.r2, &k, rect.image_size)
                 .map_err(|e| Failure(e.to_string()))?;
-            remap_all(&right, right_out, &right_map)
+            remap_all(&right, &right_out, &right_map)
         })?;
     }
     let say = match (args.quiet, args.output.as_deref()) {
@@ -709,7 +722,7 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
             rect.roi2,
             match &args.out {
                 Some(d) => format!(
-                    "; {} + {} images written to {}",
+                    "; {} + {} images written to {}/left and right",
                     args.images.len(),
                     args.right.len(),
                     d.display()

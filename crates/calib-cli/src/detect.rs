@@ -220,10 +220,13 @@ fn require_views(file: &Value, count: usize, stereo: bool) -> Result<(), Failure
         n if n > 3 => format!("; and {} more", n - 3),
         _ => String::new(),
     };
-    Err(Failure(if stereo {
-        format!("no board found in both images of any of the {count} pairs ({shown}{more})")
-    } else {
-        format!("no board found in any of the {count} images ({shown}{more})")
+    Err(Failure(match (stereo, count) {
+        (true, 1) => format!("the pair does not show the board in both images ({shown})"),
+        (true, _) => {
+            format!("no pair of the {count} shows the board in both images ({shown}{more})")
+        }
+        (false, 1) => format!("no board found in the image ({shown})"),
+        (false, _) => format!("no board found in any of the {count} images ({shown}{more})"),
     }))
 }
 

@@ -596,7 +596,39 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
         serde_json::from_str(&std::fs::read_to_string(&rect).unwrap()).unwrap();
     assert_eq!(r["P2"].as_array().unwrap().len(), 3);
     assert_eq!(r["Q"][3].as_array().unwrap().len(), 4);
-    assert!(out.join("left3.jpg").exists() && out.join("right3.jpg").exists());
+    assert!(out.join("left/left3.jpg").exists() && out.join("right/right3.jpg").exists());
+    // The usual layout of a rig's captures, one folder per camera with the same file names:
+    // the rectified images go to left/ and right/ (it was refused as two inputs of one name).
+    let (cam0, cam1) = (temp("after-cam0"), temp("after-cam1"));
+    for (dir, name) in [(&cam0, "left3.jpg"), (&cam1, "right3.jpg")] {
+        std::fs::create_dir_all(dir).unwrap();
+        std::fs::copy(
+            data(&format!("sourishg1/images/{name}")),
+            dir.join("0001.jpg"),
+        )
+        .unwrap();
+    }
+    let out2 = temp("after-rectified-same-names");
+    run_ok(
+        calib()
+            .arg("rectify")
+            .arg(&rig)
+            .arg("-q")
+            .arg("--images")
+            .arg(cam0.join("0001.jpg"))
+            .arg("--right")
+            .arg(cam1.join("0001.jpg"))
+            .arg("--out")
+            .arg(&out2),
+    );
+    assert_eq!(
+        std::fs::read(out2.join("left/0001.jpg")).unwrap(),
+        std::fs::read(out.join("left/left3.jpg")).unwrap()
+    );
+    assert_eq!(
+        std::fs::read(out2.join("right/0001.jpg")).unwrap(),
+        std::fs::read(out.join("right/right3.jpg")).unwrap()
+    );
     let und = temp("after-undistorted");
     run_ok(
         calib()
@@ -693,7 +725,7 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&run.stderr).contains("after-small.png"));
-    assert!(!rect2.exists() && !temp("after-rectified2").join("left3.jpg").exists());
+    assert!(!rect2.exists() && !temp("after-rectified2").join("left/left3.jpg").exists());
     let run = calib()
         .arg("rectify")
         .arg(&rig)
@@ -729,6 +761,15 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
         "-",
     ]);
     assert!(err.contains("2 files"), "{err}");
+    // `--export FORMAT=-` would write files named '-', '--left', '--right': refused.
+    let err = refused(&[
+        "single",
+        &data("sourishg1/left.json"),
+        "-q",
+        "--export",
+        "ros=-",
+    ]);
+    assert!(err.contains("give a file name"), "{err}");
     // The pair the other way round: the inverse transform.
     let reversed = temp("after-rect-reversed.json");
     run_ok(
@@ -1287,7 +1328,7 @@ fn photographs_of_mixed_cameras_names_and_failures() {
     assert_eq!(run.status.code(), Some(1));
     let message = String::from_utf8_lossy(&run.stderr);
     assert!(
-        message.contains("no board found in any of the 1 images")
+        message.contains("no board found in the image (")
             && message.contains("cannot read")
             && !message.contains("principal point"),
         "{message}"

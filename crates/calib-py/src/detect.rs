@@ -79,8 +79,9 @@ fn gray_pixels(image: &Bound<'_, PyAny>) -> PyResult<(Vec<u8>, usize, usize)> {
 ///
 /// Returns the corners as an (N, 1, 2) array (float32 like cv2, or ``dtype=numpy.float64``),
 /// row-major (index ``r * cols + c``, so they match :func:`board_points`), in OpenCV's pixel
-/// convention; or ``None`` when the whole board is not found (``raise_on_failure=True`` raises
-/// :class:`CalibrationError` with the reason instead). The GIL is released while it runs.
+/// convention; or ``None`` when the whole board is not found, or two whole boards are
+/// (``raise_on_failure=True`` raises :class:`CalibrationError` with the reason instead). The
+/// GIL is released while it runs.
 #[pyfunction]
 #[pyo3(signature = (image, pattern_size, *, dtype=None, raise_on_failure=false))]
 fn detect_chessboard<'py>(
