@@ -794,31 +794,25 @@ fn after_calibration_exports_read_back_undistort_and_rectify() {
     );
     // Thread counts beyond the limit and alphas out of range get a message, not minutes of
     // thread creation or clap's "unexpected argument '-1'".
-    let err = refused_with(
-        2,
-        &[
-            "undistort",
-            &single.to_string_lossy(),
-            &data("sourishg1/images/left3.jpg"),
-            "-o",
-            &und.to_string_lossy(),
-            "--threads",
-            "100000",
-        ],
-    );
+    let (single_path, und_path) = (single.to_string_lossy(), und.to_string_lossy());
+    let left3 = data("sourishg1/images/left3.jpg");
+    let undistort = |option: &str, value: &str, code: i32| {
+        refused_with(
+            code,
+            &[
+                "undistort",
+                &single_path,
+                &left3,
+                "-o",
+                &und_path,
+                option,
+                value,
+            ],
+        )
+    };
+    let err = undistort("--threads", "100000", 2);
     assert!(err.contains("0 (every core) to 1024"), "{err}");
-    let err = refused_with(
-        1,
-        &[
-            "undistort",
-            &single.to_string_lossy(),
-            &data("sourishg1/images/left3.jpg"),
-            "-o",
-            &und.to_string_lossy(),
-            "--alpha",
-            "-1",
-        ],
-    );
+    let err = undistort("--alpha", "-1", 1);
     assert!(err.contains("--alpha -1: expected 0"), "{err}");
 }
 
