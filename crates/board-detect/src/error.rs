@@ -9,7 +9,7 @@ use std::path::PathBuf;
 /// observation files.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DetectError {
-    /// The board description itself is unusable (fewer than 2 inner corners along a side,
+    /// The board description itself is unusable (fewer than 3 inner corners along a side,
     /// a non-positive or non-finite square size).
     #[error("invalid board: {0}")]
     InvalidBoard(String),

@@ -84,9 +84,9 @@ pub use image;
 /// and index `r * cols + c` (row-major).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Board {
-    /// Inner corners per row (along the board's X axis), at least 2.
+    /// Inner corners per row (along the board's X axis), at least 3.
     pub cols: usize,
-    /// Inner corners per column (along the board's Y axis), at least 2.
+    /// Inner corners per column (along the board's Y axis), at least 3.
     pub rows: usize,
     /// Side of a square, in the user's unit (mm, m, or 1.0 for "squares").
     pub square: f64,

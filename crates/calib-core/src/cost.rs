@@ -391,7 +391,7 @@ impl<R: RotationParameterization> CostFunction for JointCost<'_, R> {
         dispatch_camera_model!(model, D, P => self.evaluate_model::<D, P>(block.0, params, residuals, jacobians))
     }
 
-    /// The fused path of [`crate::kernel`], for every lens model and for the trivial, Huber and
+    /// The fused path of the `kernel` module, for every lens model and for the trivial, Huber and
     /// Cauchy losses (others take the generic path).
     fn evaluate_gram(
         &self,

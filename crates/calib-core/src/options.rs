@@ -50,7 +50,9 @@ pub struct CalibrationOptions {
     /// Reject points far beyond the noise and solve again (default on: 5 robust sigmas, never
     /// below 0.5 px; see [`crate::outliers`]). `None` uses every point, like OpenCV.
     pub outliers: Option<OutlierRejection>,
-    /// Robust loss on each point's squared error, px^2 (default none: least squares).
+    /// Robust loss on each point's reprojection error (default none: least squares). The loss
+    /// applies to the squared error in px^2, its scale (`Loss::Huber(a)`, `Loss::Cauchy(a)`)
+    /// is in pixels: Huber's `a` is the error beyond which a point counts as an outlier.
     pub loss: Loss,
     /// Homography refinement settings.
     pub homography: RefineOptions,

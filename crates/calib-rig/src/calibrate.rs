@@ -62,6 +62,19 @@ fn check(observations: &RigObservations, options: &RigOptions) -> Result<(), Rig
             )));
         }
     }
+    // A name held "in every camera whose model has it" that no camera has is a typo, not a
+    // request to hold nothing.
+    for name in &options.hold_fixed {
+        if !(0..n).any(|c| {
+            model_of(observations, options, c)
+                .distortion_names()
+                .contains(&name.as_str())
+        }) {
+            return Err(RigError::InvalidOption(format!(
+                "hold_fixed: no camera's lens model has a coefficient named '{name}'"
+            )));
+        }
+    }
     for c in &observations.cameras {
         if c.image_size.width == 0 || c.image_size.height == 0 {
             return Err(RigError::InvalidOption(format!(

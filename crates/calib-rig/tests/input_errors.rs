@@ -237,3 +237,25 @@ fn two_cameras_with_one_name_are_refused() {
         "{message}"
     );
 }
+
+/// A name to hold that no camera's model has (a typo: "k7") is refused, not ignored; a name
+/// some camera has is held there.
+#[test]
+fn holding_a_coefficient_no_camera_has_is_refused() {
+    let data = rig(3, 20);
+    let mut options = RigOptions::default();
+    options.hold_fixed = vec!["k7".into()];
+    let message = calibrate_rig(&data.observations, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("'k7'"), "{message}");
+    options.hold_fixed = vec!["k2".into()];
+    let result = calibrate_rig(&data.observations, &options).unwrap();
+    for camera in &result.cameras {
+        assert!(
+            camera.estimate.fixed_parameters.contains(&"k2".to_string()),
+            "{:?}",
+            camera.estimate.fixed_parameters
+        );
+    }
+}

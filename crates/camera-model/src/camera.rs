@@ -91,7 +91,11 @@ impl<D: LensDistortion, P: Projection> Camera<D, P> {
     }
 
     /// The camera from the parameter vector `[fx, fy, cx, cy, distortion...]`
-    /// (`params[..Self::NUM_PARAMS]`).
+    /// (`params[..Self::NUM_PARAMS]`), unchecked: the solver's hot path. Use
+    /// [`crate::AnyCamera::from_params`] for a checked camera.
+    ///
+    /// # Panics
+    /// If `params` is shorter than [`Self::NUM_PARAMS`].
     pub fn from_params(params: &[f64]) -> Self {
         let intrinsics = Intrinsics::new(params[0], params[1], params[2], params[3]);
         Self::from_parts(intrinsics, D::from_params(&params[4..]))
@@ -99,8 +103,10 @@ impl<D: LensDistortion, P: Projection> Camera<D, P> {
 
     /// Pixel of a point given in the camera frame.
     ///
-    /// Errors if the projection does not reach the point (behind a pinhole camera) or it is not
-    /// finite.
+    /// Errors if the projection does not reach the point (behind a pinhole camera) or the point
+    /// is not finite. The pixel itself is not checked (this is the solver's hot path, where a
+    /// non-finite cost rejects the step): at a pole of a rational model it is infinite or NaN.
+    /// [`crate::AnyCamera::project_camera_point`] checks it.
     #[inline]
     pub fn project_camera_point(&self, s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
         // Same arithmetic as `project_with_jacobians`, so both give identical bits.

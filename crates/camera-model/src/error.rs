@@ -46,7 +46,19 @@ pub enum CameraModelError {
     /// A camera model name that is not known.
     #[error("unknown camera model '{0}' (known: {known})", known = crate::model::CameraModel::NAMES.join(", "))]
     UnknownModel(String),
-    /// A parameter vector of the wrong length for its model.
+    /// An intrinsic parameter vector `[fx, fy, cx, cy, distortion...]` of the wrong length.
+    #[error(
+        "model {model} takes {expected} intrinsic parameters (fx, fy, cx, cy and its distortion coefficients), got {found}"
+    )]
+    ParameterVectorLength {
+        /// The model name.
+        model: &'static str,
+        /// Expected number.
+        expected: usize,
+        /// Given number.
+        found: usize,
+    },
+    /// A distortion coefficient list of the wrong length for its model.
     #[error("model {model} has {expected} distortion coefficients, got {found}")]
     ParameterCount {
         /// The model name.

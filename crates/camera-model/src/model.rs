@@ -195,8 +195,12 @@ impl TryFrom<String> for CameraModel {
 
 /// A camera of any [`CameraModel`]: intrinsics and distortion coefficients (OpenCV's order).
 ///
-/// Every operation dispatches once to the model's [`Camera`] type.
+/// Every operation dispatches once to the model's [`Camera`] type. [`AnyCamera::new`] and
+/// deserialization check the camera (coefficient count, finite values, positive focal
+/// lengths); the fields are public, so the operations check the coefficient count again and
+/// return [`CameraModelError::ParameterCount`] rather than panic.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "AnyCameraFields")]
 pub struct AnyCamera {
     /// The model.
     pub model: CameraModel,
@@ -206,35 +210,76 @@ pub struct AnyCamera {
     pub distortion: Vec<f64>,
 }
 
-/// Runs `$body` with `$camera` bound to the typed [`Camera`] of an [`AnyCamera`].
+/// The fields of an [`AnyCamera`] as read, checked by [`AnyCamera::new`] on deserialization.
+#[derive(Deserialize)]
+struct AnyCameraFields {
+    model: CameraModel,
+    intrinsics: Intrinsics,
+    distortion: Vec<f64>,
+}
+
+impl TryFrom<AnyCameraFields> for AnyCamera {
+    type Error = CameraModelError;
+
+    fn try_from(f: AnyCameraFields) -> Result<Self, Self::Error> {
+        AnyCamera::new(f.model, f.intrinsics, f.distortion)
+    }
+}
+
+/// Runs `$body` with `$camera` bound to the typed [`Camera`] of an [`AnyCamera`], or returns
+/// the coefficient-count error.
 macro_rules! with_typed_camera {
-    ($any:expr, $camera:ident => $body:expr) => {
+    ($any:expr, $camera:ident => $body:expr) => {{
+        $any.check_count()?;
         dispatch_camera_model!($any.model, D, P => {
             let $camera = Camera::<D, P>::from_parts($any.intrinsics, D::from_params(&$any.distortion));
             $body
         })
-    };
+    }};
 }
 
 impl AnyCamera {
-    /// A camera; errors if `distortion` does not have the model's number of coefficients.
+    /// A camera; errors if `distortion` does not have the model's number of coefficients, if a
+    /// value is not finite, or if a focal length is not positive.
     pub fn new(
         model: CameraModel,
         intrinsics: Intrinsics,
         distortion: Vec<f64>,
     ) -> Result<Self, CameraModelError> {
-        if distortion.len() != model.num_distortion_params() {
-            return Err(CameraModelError::ParameterCount {
-                model: model.name(),
-                expected: model.num_distortion_params(),
-                found: distortion.len(),
-            });
-        }
-        Ok(Self {
+        let camera = Self {
             model,
             intrinsics,
             distortion,
-        })
+        };
+        camera.check_count()?;
+        let Intrinsics { fx, fy, cx, cy } = intrinsics;
+        if !(fx.is_finite() && fy.is_finite() && fx > 0.0 && fy > 0.0) {
+            return Err(CameraModelError::InvalidIntrinsics { fx, fy });
+        }
+        if !(cx.is_finite() && cy.is_finite()) {
+            return Err(CameraModelError::NonFinite {
+                what: "principal point",
+            });
+        }
+        if camera.distortion.iter().any(|d| !d.is_finite()) {
+            return Err(CameraModelError::NonFinite {
+                what: "distortion coefficients",
+            });
+        }
+        Ok(camera)
+    }
+
+    /// Errors unless `distortion` has the model's number of coefficients.
+    fn check_count(&self) -> Result<(), CameraModelError> {
+        if self.distortion.len() == self.model.num_distortion_params() {
+            Ok(())
+        } else {
+            Err(CameraModelError::ParameterCount {
+                model: self.model.name(),
+                expected: self.model.num_distortion_params(),
+                found: self.distortion.len(),
+            })
+        }
     }
 
     /// A camera of `model` without distortion.
@@ -249,23 +294,26 @@ impl AnyCamera {
     /// A camera from the intrinsic parameter vector `[fx, fy, cx, cy, distortion...]`.
     pub fn from_params(model: CameraModel, params: &[f64]) -> Result<Self, CameraModelError> {
         if params.len() != model.num_params() {
-            return Err(CameraModelError::ParameterCount {
+            return Err(CameraModelError::ParameterVectorLength {
                 model: model.name(),
-                expected: model.num_distortion_params(),
-                found: params.len().saturating_sub(4),
+                expected: model.num_params(),
+                found: params.len(),
             });
         }
-        Ok(Self {
+        Self::new(
             model,
-            intrinsics: Intrinsics::new(params[0], params[1], params[2], params[3]),
-            distortion: params[4..].to_vec(),
-        })
+            Intrinsics::new(params[0], params[1], params[2], params[3]),
+            params[4..].to_vec(),
+        )
     }
 
-    /// The typed camera; `None` unless `D` and `P` are this camera's model types.
+    /// The typed camera; `None` unless `D` and `P` are this camera's model types (and the
+    /// coefficient count is the model's).
     pub fn typed<D: LensDistortion, P: Projection>(&self) -> Option<Camera<D, P>> {
-        (D::NAME == self.model.name())
-            .then(|| Camera::from_parts(self.intrinsics, D::from_params(&self.distortion)))
+        (D::NAME == self.model.name()
+            && P::NAME == self.model.projection_name()
+            && self.check_count().is_ok())
+        .then(|| Camera::from_parts(self.intrinsics, D::from_params(&self.distortion)))
     }
 
     /// The intrinsic parameter vector `[fx, fy, cx, cy, distortion...]`.
@@ -286,9 +334,18 @@ impl AnyCamera {
         self.intrinsics.matrix()
     }
 
-    /// Pixel of a camera-frame point.
+    /// Pixel of a camera-frame point. Errors if the projection does not reach the point
+    /// (behind a pinhole camera), or if the pixel is not finite (at a pole of a rational model:
+    /// [`CameraModelError::NonFinite`]).
     pub fn project_camera_point(&self, s: &Vector3<f64>) -> Result<Vector2<f64>, CameraModelError> {
-        with_typed_camera!(self, camera => camera.project_camera_point(s))
+        let pixel = with_typed_camera!(self, camera => camera.project_camera_point(s))?;
+        if pixel.x.is_finite() && pixel.y.is_finite() {
+            Ok(pixel)
+        } else {
+            Err(CameraModelError::NonFinite {
+                what: "pixel (the point lies on a pole of the lens model)",
+            })
+        }
     }
 
     /// Pixel of a world point seen from `pose` (world to camera).
@@ -310,7 +367,10 @@ impl AnyCamera {
         with_typed_camera!(self, camera => camera.undistort_pixel(pixel, options))
     }
 
-    /// The unit viewing ray (camera frame) through `pixel`.
+    /// The unit viewing ray (camera frame) through `pixel`. Where the distortion folds (beyond
+    /// the validity radius, `crate::validity`) a pixel has several preimages, and the ray
+    /// returned may be a non-physical one on the folded branch: check the camera's validity
+    /// before trusting rays near or beyond the image border.
     pub fn pixel_to_ray(
         &self,
         pixel: &Vector2<f64>,
@@ -323,6 +383,60 @@ impl AnyCamera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What users can build or read is checked: a wrong coefficient count (from a file, or
+    /// the public field changed afterwards) is an error, never a panic; non-finite values and
+    /// non-positive focal lengths are refused.
+    #[test]
+    fn malformed_cameras_are_errors_not_panics() {
+        let k = Intrinsics::new(800.0, 800.0, 320.0, 240.0);
+        let text = r#"{"model":"rational8","intrinsics":{"fx":800,"fy":800,"cx":320,"cy":240},"distortion":[0.1,0.2]}"#;
+        assert!(serde_json::from_str::<AnyCamera>(text).is_err());
+        let mut camera = AnyCamera::undistorted(CameraModel::Rational8, k);
+        camera.distortion.truncate(2);
+        let s = Vector3::new(0.1, 0.1, 1.0);
+        assert!(matches!(
+            camera.project_camera_point(&s),
+            Err(CameraModelError::ParameterCount {
+                expected: 8,
+                found: 2,
+                ..
+            })
+        ));
+        assert!(
+            camera
+                .pixel_to_ray(&Vector2::new(1.0, 2.0), &UndistortOptions::default())
+                .is_err()
+        );
+        assert!(camera.typed::<Rational8, crate::Pinhole>().is_none());
+        for bad in [
+            Intrinsics::new(f64::NAN, 800.0, 320.0, 240.0),
+            Intrinsics::new(-800.0, 800.0, 320.0, 240.0),
+            Intrinsics::new(800.0, 800.0, f64::INFINITY, 240.0),
+        ] {
+            assert!(AnyCamera::new(CameraModel::BrownConrady4, bad, vec![0.0; 4]).is_err());
+        }
+        assert!(
+            AnyCamera::new(CameraModel::BrownConrady4, k, vec![f64::NAN, 0.0, 0.0, 0.0]).is_err()
+        );
+        // A point on the pole of a rational model (denominator 1 + k4 r^2 = 0 at r = 0.5) has
+        // no finite pixel: an error, not Ok(inf).
+        let mut pole = vec![0.0; 8];
+        pole[5] = -4.0;
+        let rational = AnyCamera::new(CameraModel::Rational8, k, pole).unwrap();
+        assert!(matches!(
+            rational.project_camera_point(&Vector3::new(0.5, 0.0, 1.0)),
+            Err(CameraModelError::NonFinite { .. })
+        ));
+        assert!(matches!(
+            AnyCamera::from_params(CameraModel::Rational8, &[800.0, 800.0, 1.0]),
+            Err(CameraModelError::ParameterVectorLength {
+                expected: 12,
+                found: 3,
+                ..
+            })
+        ));
+    }
 
     #[test]
     fn names_parse_and_print() {
@@ -372,6 +486,9 @@ mod tests {
             .unwrap();
         assert!((ray.into_inner() - side.normalize()).norm() < 1e-10);
         assert!(AnyCamera::new(CameraModel::Rational8, k, vec![0.0; 4]).is_err());
+        // A fisheye is not a pinhole camera with the same coefficients.
+        assert!(fisheye.typed::<KannalaBrandt4, crate::Pinhole>().is_none());
+        assert!(fisheye.typed::<KannalaBrandt4, Equidistant>().is_some());
         let json = serde_json::to_value(&fisheye).unwrap();
         assert_eq!(json["model"], "kannala-brandt4");
         assert_eq!(serde_json::from_value::<AnyCamera>(json).unwrap(), fisheye);

@@ -368,6 +368,36 @@ pub enum SolverError {
     /// The thread pool could not be created.
     #[error("thread pool setup failed: {0}")]
     ThreadPool(String),
+    /// A solver option is out of its range (a NaN or negative tolerance, `min_lambda` above
+    /// `max_lambda`, ...).
+    #[error("invalid solver option: {0}")]
+    InvalidOption(String),
+}
+
+impl SolverOptions {
+    /// Errors unless the tolerances are finite and not negative and
+    /// `0 < min_lambda <= max_lambda` (both finite).
+    pub fn check(&self) -> Result<(), SolverError> {
+        for (name, value) in [
+            ("gradient_tolerance", self.gradient_tolerance),
+            ("function_tolerance", self.function_tolerance),
+            ("parameter_tolerance", self.parameter_tolerance),
+            ("stagnation_tolerance", self.stagnation_tolerance),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SolverError::InvalidOption(format!(
+                    "{name} = {value}: expected a finite number, 0 or more"
+                )));
+            }
+        }
+        let (low, high) = (self.min_lambda, self.max_lambda);
+        if !(low.is_finite() && high.is_finite() && low > 0.0 && low <= high) {
+            return Err(SolverError::InvalidOption(format!(
+                "min_lambda = {low}, max_lambda = {high}: expected 0 < min_lambda <= max_lambda, both finite"
+            )));
+        }
+        Ok(())
+    }
 }
 
 pub(crate) fn describe(failure: &EvaluationFailure) -> (usize, String) {
@@ -440,6 +470,7 @@ impl std::fmt::Debug for Solver {
 impl Solver {
     /// Prepares a solver for `problem`.
     pub fn new(problem: Problem, options: SolverOptions) -> Result<Self, SolverError> {
+        options.check()?;
         let dense = options.linear_solver.resolve(&problem) == LinearSolverKind::DenseSchur;
         let mut ne = NormalEquations::new(&problem, options.chunk_work, dense);
         let linear = LinearSolver::new(options.linear_solver, &problem, &mut ne)

@@ -49,6 +49,18 @@ pub enum Loss {
 }
 
 impl Loss {
+    /// Errors unless the loss's scale is finite and positive (Huber's threshold, Cauchy's
+    /// scale): a zero scale makes every residual an outlier with zero weight, a negative or NaN
+    /// one makes the cost non-finite.
+    pub fn check(&self) -> Result<(), String> {
+        match *self {
+            Loss::Huber(a) | Loss::Cauchy(a) if !(a.is_finite() && a > 0.0) => {
+                Err(format!("the loss {self:?} needs a finite, positive scale"))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// `[rho(s), rho'(s), rho''(s)]`.
     #[inline]
     pub fn evaluate(&self, s: f64) -> [f64; 3] {

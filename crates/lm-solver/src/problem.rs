@@ -108,6 +108,14 @@ pub enum ProblemError {
         /// The group size.
         group: usize,
     },
+    /// A residual block's robust loss has a scale that is not finite and positive.
+    #[error("residual block {residual}: {reason}")]
+    InvalidLoss {
+        /// The residual block.
+        residual: usize,
+        /// What is wrong ([`Loss::check`]).
+        reason: String,
+    },
     /// A fixed component index is out of range.
     #[error("parameter block {block} has dimension {dim}; component {component} cannot be fixed")]
     ComponentOutOfRange {
@@ -480,6 +488,12 @@ impl Problem {
                     group,
                 });
             }
+            spec.loss
+                .check()
+                .map_err(|reason| ProblemError::InvalidLoss {
+                    residual: r,
+                    reason,
+                })?;
             if spec.blocks.len() > MAX_BLOCKS_PER_RESIDUAL {
                 return Err(ProblemError::TooManyParameterBlocks {
                     residual: r,

@@ -624,6 +624,46 @@ fn evaluation_failures_error_at_the_start_and_reject_trial_steps() {
     ));
 }
 
+/// Robust losses without a finite, positive scale and solver options out of range are typed
+/// errors naming the residual block or option (`Huber(0.0)` "converged" at the start, and a
+/// NaN scale was blamed on the cost function as a non-finite residual).
+#[test]
+fn invalid_losses_and_options_are_refused() {
+    for loss in [Loss::Huber(0.0), Loss::Huber(-1.0), Loss::Cauchy(f64::NAN)] {
+        let mut builder = ProblemBuilder::new();
+        let p = builder.add_parameter_block(1);
+        builder.add_residual_block(1, &[p]);
+        builder.add_residual_block_with_loss(1, &[p], loss);
+        let err = builder.build().unwrap_err();
+        assert!(err.to_string().starts_with("residual block 1: "), "{err}");
+    }
+    let problem = || {
+        let mut builder = ProblemBuilder::new();
+        let p = builder.add_parameter_block(1);
+        builder.add_residual_block_with_loss(1, &[p], Loss::Huber(1.0));
+        builder.build().unwrap()
+    };
+    for (what, change) in [
+        (
+            "gradient_tolerance",
+            (|o: &mut SolverOptions| o.gradient_tolerance = f64::NAN) as fn(&mut SolverOptions),
+        ),
+        ("function_tolerance", |o| o.function_tolerance = -1.0),
+        ("min_lambda", |o| o.min_lambda = 1e17),
+        ("min_lambda", |o| o.min_lambda = 0.0),
+    ] {
+        let mut options = SolverOptions::default();
+        change(&mut options);
+        match Solver::new(problem(), options) {
+            Err(SolverError::InvalidOption(message)) => {
+                assert!(message.contains(what), "{message}")
+            }
+            other => panic!("{what}: {:?}", other.map(|_| ())),
+        }
+    }
+    assert!(Solver::new(problem(), SolverOptions::default()).is_ok());
+}
+
 #[test]
 fn termination_reasons_are_reported() {
     let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
