@@ -1,6 +1,6 @@
 //! What the calibration crates' tests share (a dev-dependency only, never of a library):
 //!
-//! * [`sweep`]: run a convergence sweep over a population of generated problems on two
+//! * [`mod@sweep`]: run a convergence sweep over a population of generated problems on two
 //!   threads, classify each problem ([`Outcome`]) and print and check the tally;
 //! * [`mutate`]: the byte- and number-level mutations of a JSON input file that the fuzz
 //!   tests apply, and [`all_finite`] for their results.
