@@ -155,12 +155,12 @@ fn size_mismatch(a: usize, b: usize, board: &Board) -> DetectError {
 
 /// Whether a grid smaller than the board is reported as a [`DetectError::PartialBoard`]
 /// rather than [`DetectError::NoBoard`]: at least half of the board's corners, at least 12,
-/// and at least 4 corners on each side (or the board's shorter side, if under 4). Smaller
-/// grids (a 3x3 seed grown by up to a third of a 9x6 board) are what textures and noise give.
+/// and at least 3 corners on each side (a seed's size). Smaller grids (a 3x3 seed grown by up
+/// to a third of a 9x6 board) are what textures and noise give; three full rows of a 9x6
+/// board are half of it.
 fn is_partial_board(g: &grid::Grid, board: &Board) -> bool {
     let count = g.count();
-    count >= (board.cols * board.rows).div_ceil(2).max(12)
-        && g.nu.min(g.nv) >= board.cols.min(board.rows).min(4)
+    count >= (board.cols * board.rows).div_ceil(2).max(12) && g.nu.min(g.nv) >= 3
 }
 
 /// Checks the grid size, fills and verifies missing corners, labels. On failure returns the
