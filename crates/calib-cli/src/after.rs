@@ -722,10 +722,11 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
             rect.roi2,
             match &args.out {
                 Some(d) => format!(
-                    "; {} + {} images written to {}/left and right",
+                    "; {} + {} images written to {} and {}",
                     args.images.len(),
                     args.right.len(),
-                    d.display()
+                    d.join("left").display(),
+                    d.join("right").display()
                 ),
                 None => String::new(),
             }
