@@ -23,6 +23,40 @@ pub fn detect_image(
 /// image above `options.max_pixels` (or below 16 pixels on a side) is refused before its
 /// pixels are decoded; decoder memory is limited accordingly.
 pub fn load_gray(path: &Path, options: &DetectOptions) -> Result<image::GrayImage, DetectError> {
+    load_upright(path, options).map(to_gray8)
+}
+
+/// Reads a JPEG or PNG file as `cv2.imread` does, keeping its channels and depth: the EXIF
+/// orientation (JPEG, and PNG's `eXIf` chunk) is applied, so the image is the upright,
+/// displayed picture. The same header checks and memory limit as [`load_gray`]. The image
+/// every command of the workspace works on (detection, undistortion, rectification), so that
+/// their sizes and pixels agree.
+pub fn load_upright(
+    path: &Path,
+    options: &DetectOptions,
+) -> Result<image::DynamicImage, DetectError> {
+    decode_upright(open_checked(path)?, options)
+}
+
+/// The upright size `(width, height)` of a JPEG or PNG file ([`load_upright`]'s), from its
+/// header and EXIF block alone: width and height swap for the orientations that turn the image
+/// by 90 degrees.
+pub fn upright_dimensions(path: &Path) -> Result<(u32, u32), DetectError> {
+    let mut decoder = open_checked(path)?.into_decoder().map_err(map_image_err)?;
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    use image::metadata::Orientation as O;
+    Ok(
+        match image::ImageDecoder::orientation(&mut decoder).unwrap_or(O::NoTransforms) {
+            O::Rotate90 | O::Rotate270 | O::Rotate90FlipH | O::Rotate270FlipH => (h, w),
+            _ => (w, h),
+        },
+    )
+}
+
+/// The file opened with its format guessed from the content: JPEG or PNG, else an error.
+fn open_checked(
+    path: &Path,
+) -> Result<ImageReader<std::io::BufReader<std::fs::File>>, DetectError> {
     let io_err = |e: std::io::Error| DetectError::Io {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -31,20 +65,21 @@ pub fn load_gray(path: &Path, options: &DetectOptions) -> Result<image::GrayImag
         .map_err(io_err)?
         .with_guessed_format()
         .map_err(io_err)?;
-    match reader.format() {
-        Some(ImageFormat::Jpeg | ImageFormat::Png) => {}
-        Some(f) => {
-            return Err(DetectError::UnsupportedFormat(format!(
-                "{f:?} (only JPEG and PNG are supported)"
-            )));
-        }
-        None => {
-            return Err(DetectError::UnsupportedFormat(
-                "not a JPEG or PNG file".into(),
-            ));
-        }
+    check_format(reader.format())?;
+    Ok(reader)
+}
+
+/// JPEG and PNG are read; anything else is refused with what it is.
+fn check_format(format: Option<ImageFormat>) -> Result<(), DetectError> {
+    match format {
+        Some(ImageFormat::Jpeg | ImageFormat::Png) => Ok(()),
+        Some(f) => Err(DetectError::UnsupportedFormat(format!(
+            "{f:?} (only JPEG and PNG are supported)"
+        ))),
+        None => Err(DetectError::UnsupportedFormat(
+            "not a JPEG or PNG file".into(),
+        )),
     }
-    decode(reader, options)
 }
 
 /// Decodes an in-memory JPEG or PNG file to 8-bit grayscale, with the same checks as
@@ -53,26 +88,14 @@ pub fn decode_gray(bytes: &[u8], options: &DetectOptions) -> Result<image::GrayI
     let reader = ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| DetectError::Decode(e.to_string()))?;
-    match reader.format() {
-        Some(ImageFormat::Jpeg | ImageFormat::Png) => {}
-        Some(f) => {
-            return Err(DetectError::UnsupportedFormat(format!(
-                "{f:?} (only JPEG and PNG are supported)"
-            )));
-        }
-        None => {
-            return Err(DetectError::UnsupportedFormat(
-                "not a JPEG or PNG file".into(),
-            ));
-        }
-    }
-    decode(reader, options)
+    check_format(reader.format())?;
+    decode_upright(reader, options).map(to_gray8)
 }
 
-fn decode<R: std::io::BufRead + std::io::Seek>(
+fn decode_upright<R: std::io::BufRead + std::io::Seek>(
     reader: ImageReader<R>,
     options: &DetectOptions,
-) -> Result<image::GrayImage, DetectError> {
+) -> Result<image::DynamicImage, DetectError> {
     let mut decoder = reader.into_decoder().map_err(map_image_err)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     crate::detect::check_size(w as u64, h as u64, options)?;
@@ -80,14 +103,13 @@ fn decode<R: std::io::BufRead + std::io::Seek>(
     let mut limits = image::Limits::default();
     limits.max_alloc = Some((w as u64 * h as u64 * 8).saturating_add(64 << 20));
     image::ImageDecoder::set_limits(&mut decoder, limits).map_err(map_image_err)?;
-    // The EXIF orientation (JPEG, and PNG's eXIf chunk), applied as cv2.imread does: the
-    // image is turned upright, so its size and corners are those of the displayed picture.
-    // An unreadable EXIF block is ignored, as OpenCV ignores it.
+    // The EXIF orientation, applied as cv2.imread does. An unreadable EXIF block is ignored, as
+    // OpenCV ignores it.
     let orientation = image::ImageDecoder::orientation(&mut decoder)
         .unwrap_or(image::metadata::Orientation::NoTransforms);
     let mut img = image::DynamicImage::from_decoder(decoder).map_err(map_image_err)?;
     img.apply_orientation(orientation);
-    Ok(to_gray8(img))
+    Ok(img)
 }
 
 /// 8-bit grey from any decoded image. 16-bit images are stretched from their 0.1th to their

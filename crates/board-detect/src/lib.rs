@@ -265,6 +265,6 @@ pub fn detect(
 mod io;
 pub use io::{
     ImageResult, decode_gray, detect_file, detect_files, detect_image, image_names, load_gray,
-    observations_json, stereo_observations_json,
+    load_upright, observations_json, stereo_observations_json, upright_dimensions,
 };
 pub mod synth;

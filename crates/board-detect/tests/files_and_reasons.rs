@@ -110,6 +110,17 @@ fn exif_orientation_is_applied() {
         .collect();
     let d = max_distance(&turned.corners, &expected);
     assert!(d < 0.05, "corners {d} px from the turned ones");
+
+    // The colour reader every command uses (undistortion, rectification) and the header-only
+    // size agree with the detector: upright, colour kept (they read the stored 640x360 before).
+    let file = Path::new(env!("CARGO_TARGET_TMPDIR")).join("left1-orientation6.jpg");
+    std::fs::write(&file, &jpeg).unwrap();
+    assert_eq!(board_detect::upright_dimensions(&file).unwrap(), (360, 640));
+    let colour = board_detect::load_upright(&file, &DetectOptions::default()).unwrap();
+    assert_eq!((colour.width(), colour.height()), (360, 640));
+    assert_eq!(colour.color(), image::ColorType::Rgb8);
+    let grey = board_detect::load_gray(&file, &DetectOptions::default()).unwrap();
+    assert_eq!(grey.as_raw(), upright.as_raw());
 }
 
 fn result(

@@ -443,14 +443,11 @@ fn output_paths(images: &[&PathBuf], dir: &Path, inputs: &[&str]) -> Result<Vec<
     Ok(out)
 }
 
-/// Checks that every image can be opened and has `size` (from its header, without decoding),
-/// so that a bad input is refused before any output is written.
+/// Checks that every image can be opened and has `size` (upright, from its header, without
+/// decoding), so that a bad input is refused before any output is written.
 fn check_images(images: &[&PathBuf], size: calib_core::ImageSize) -> Result<(), Failure> {
     for input in images {
-        let dimensions = board_detect::image::ImageReader::open(input)
-            .and_then(|r| r.with_guessed_format())
-            .map_err(|e| e.to_string())
-            .and_then(|r| r.into_dimensions().map_err(|e| e.to_string()))
+        let dimensions = board_detect::upright_dimensions(input)
             .map_err(|e| Failure(format!("{}: {e}", input.display())))?;
         if dimensions != (size.width, size.height) {
             return Err(Failure(format!(

@@ -165,11 +165,14 @@ pub fn remap_image(image: &DynamicImage, map: &PixelMap) -> DynamicImage {
     }
 }
 
-/// Reads an image file (JPEG or PNG).
+/// Reads an image file (JPEG or PNG) as the detector and `cv2.imread` read it: upright (EXIF
+/// orientation applied), its channels and depth kept ([`board_detect::load_upright`]).
 pub fn read_image(path: &std::path::Path) -> Result<DynamicImage, ExportError> {
-    image::open(path).map_err(|e| ExportError::Image {
-        path: path.display().to_string(),
-        reason: e.to_string(),
+    board_detect::load_upright(path, &board_detect::DetectOptions::default()).map_err(|e| {
+        ExportError::Image {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        }
     })
 }
 
