@@ -823,7 +823,7 @@ fn report_input<R, O: calib_core::JsonFile>(
     value: serde_json::Value,
     name: &str,
     observations: Option<&str>,
-    from_json: impl FnOnce(serde_json::Value) -> Result<R, String>,
+    from_json: impl FnOnce(serde_json::Value) -> Result<R, calib_core::ResultFormatError>,
     report: impl FnOnce(&R, Option<&O>) -> Result<calib_export::ReportInput, calib_export::ExportError>,
 ) -> Result<calib_export::ReportInput, Failure> {
     let result = from_json(value).map_err(|e| Failure(format!("{name}: {e}")))?;

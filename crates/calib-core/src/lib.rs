@@ -36,7 +36,7 @@ pub use io::{JsonFile, ReadError, read_text, write_atomically};
 pub use options::{CalibrationOptions, default_solver_options};
 pub use outliers::OutlierRejection;
 pub use problem::{CameraSpec, JointProblem, ObservationSpec, ProblemError};
-pub use result::{CameraEstimate, SkippedView, StageTimes, ViewResult};
+pub use result::{CameraEstimate, ResultFormatError, SkippedView, StageTimes, ViewResult};
 pub use single::{PreparedCamera, prepare_camera};
 pub use solve::{JointSolution, ObservationErrors, SolveOptions, reprojection_errors, solve};
 pub use warnings::{Warning, WarningCode};

@@ -25,18 +25,62 @@ pub mod seconds {
     }
 }
 
+/// Why a result's JSON form could not be read back (`from_json` of the single, stereo and rig
+/// results, and of a rectification).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ResultFormatError {
+    /// The `format` key is missing or names another kind of file (a stereo result given where a
+    /// single-camera one is read, say).
+    #[error("not a {expected} (format '{found}')")]
+    WrongKind {
+        /// The kind that was expected ("single-camera result", "rectification file", ...).
+        expected: &'static str,
+        /// The `format` key found (empty if missing).
+        found: String,
+    },
+    /// A key is missing or has the wrong type or an invalid value (a camera with the wrong
+    /// number of coefficients, a negative focal length): serde's message names it.
+    #[error("{0}")]
+    Malformed(#[from] serde_json::Error),
+    /// A key holds a name the result does not know (a rotation parameterization, a start
+    /// method).
+    #[error("{key}: {reason}")]
+    UnknownName {
+        /// The JSON key.
+        key: &'static str,
+        /// What is wrong, with the accepted names.
+        reason: String,
+    },
+}
+
+impl ResultFormatError {
+    /// Parses the name held by `key` (an enum with a `FromStr` whose error is its message).
+    pub fn parse_name<T: std::str::FromStr<Err = String>>(
+        key: &'static str,
+        name: &str,
+    ) -> Result<T, Self> {
+        name.parse()
+            .map_err(|reason| ResultFormatError::UnknownName { key, reason })
+    }
+}
+
 /// Deserializes a result file of type `T` after checking that its `format` key starts with
-/// `prefix` (e.g. `calib-single-result/`); `what` names the kind for the message.
+/// `prefix` (e.g. `calib-single-result/`); `what` names the kind for the message
+/// ("single-camera result").
 pub fn deserialize_versioned<T: serde::de::DeserializeOwned>(
     value: serde_json::Value,
     prefix: &str,
-    what: &str,
-) -> Result<T, String> {
+    what: &'static str,
+) -> Result<T, ResultFormatError> {
     let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
     if !format.starts_with(prefix) {
-        return Err(format!("not a {what} result (format '{format}')"));
+        return Err(ResultFormatError::WrongKind {
+            expected: what,
+            found: format.to_string(),
+        });
     }
-    serde_json::from_value(value).map_err(|e| e.to_string())
+    Ok(serde_json::from_value(value)?)
 }
 
 /// A duration from seconds (negative or non-finite values become zero).

@@ -226,25 +226,25 @@ pub fn parse_calibration(text: &str, path: &str) -> Result<Calibrated, ExportErr
             .and_then(|f| f.as_str())
             .unwrap_or("")
             .to_string();
-        let content = |reason: String| ExportError::Syntax {
+        let content = |reason: &dyn std::fmt::Display| ExportError::Syntax {
             path: path.to_string(),
-            reason,
+            reason: reason.to_string(),
         };
         let calibrated = if format.starts_with("calib-single-result/") {
-            let c = calib_single::Calibration::from_json(value).map_err(content)?;
+            let c = calib_single::Calibration::from_json(value).map_err(|e| content(&e))?;
             Calibrated::Single(CameraCalibration::from(&c))
         } else if format.starts_with("calib-stereo-result/") {
-            let s = calib_stereo::StereoCalibration::from_json(value).map_err(content)?;
+            let s = calib_stereo::StereoCalibration::from_json(value).map_err(|e| content(&e))?;
             Calibrated::Stereo(StereoRig::from(&s))
         } else if format.starts_with("calib-rig-result/") {
-            let r = calib_rig::RigCalibration::from_json(value).map_err(content)?;
+            let r = calib_rig::RigCalibration::from_json(value).map_err(|e| content(&e))?;
             Calibrated::Rig(CameraRig::from(&r))
         } else {
             return Err(ExportError::UnknownFormat {
                 path: path.to_string(),
             });
         };
-        calibrated.check().map_err(|e| content(e.to_string()))?;
+        calibrated.check().map_err(|e| content(&e))?;
         return Ok(calibrated);
     }
     let value = yaml::parse(text, path)?;

@@ -54,7 +54,7 @@ pub mod ros;
 pub mod undistort;
 mod yaml;
 
-pub use calib_core::ImageSize;
+pub use calib_core::{ImageSize, ResultFormatError};
 pub use calibration::{Calibrated, CameraCalibration, CameraRig, StereoRig};
 pub use camera_model;
 pub use error::ExportError;

@@ -30,7 +30,7 @@
 use crate::calibration::StereoRig;
 use crate::error::ExportError;
 use crate::undistort::{Rect, clip_roi, pixel_ray, undistort_rectangles};
-use calib_core::ImageSize;
+use calib_core::{ImageSize, ResultFormatError};
 use camera_model::{AxisAngle, RotationParameterization};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -268,11 +268,15 @@ impl Rectification {
     }
 
     /// Reads [`Rectification::to_json`]'s form.
-    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
-        let j: RectificationJson = serde_json::from_value(value).map_err(|e| e.to_string())?;
-        if j.format != RECTIFICATION_FORMAT {
-            return Err(format!("not a rectification file (format '{}')", j.format));
+    pub fn from_json(value: serde_json::Value) -> Result<Self, ResultFormatError> {
+        let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+        if format != RECTIFICATION_FORMAT {
+            return Err(ResultFormatError::WrongKind {
+                expected: "rectification file",
+                found: format.to_string(),
+            });
         }
+        let j: RectificationJson = serde_json::from_value(value)?;
         let m3 = |r: &[[f64; 3]; 3]| Matrix3::from_fn(|i, k| r[i][k]);
         let m34 = |r: &[[f64; 4]; 3]| Matrix3x4::from_fn(|i, k| r[i][k]);
         Ok(Rectification {

@@ -40,7 +40,7 @@ pub mod options;
 pub mod result;
 pub mod synthetic;
 
-pub use calib_core::JsonFile;
+pub use calib_core::{JsonFile, ResultFormatError};
 pub use calibrate::{calibrate_rig, rig_problem};
 pub use error::RigError;
 pub use observations::{RigCameraInput, RigFrame, RigObservation, RigObservations};

@@ -1,7 +1,9 @@
 //! The rig calibration result, its summary and its JSON form (`docs/formats.md`, format
 //! `calib-rig-result/1`).
 
-use calib_core::result::{CameraEstimate, deserialize_versioned, duration_from_seconds};
+use calib_core::result::{
+    CameraEstimate, ResultFormatError, deserialize_versioned, duration_from_seconds,
+};
 use calib_core::warnings::{Warning, write_warnings};
 use camera_model::{AxisAngle, Pose, RotationKind, RotationParameterization};
 use lm_solver::SolverReport;
@@ -189,8 +191,8 @@ impl RigCalibration {
     }
 
     /// Reads a result written by [`RigCalibration::to_json`].
-    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
-        let j: RigJson = deserialize_versioned(value, "calib-rig-result/", "rig")?;
+    pub fn from_json(value: serde_json::Value) -> Result<Self, ResultFormatError> {
+        let j: RigJson = deserialize_versioned(value, "calib-rig-result/", "rig result")?;
         Ok(RigCalibration {
             cameras: j
                 .cameras
@@ -210,7 +212,10 @@ impl RigCalibration {
             rms_all_points: j.rms_all_points,
             num_rejected: j.num_rejected,
             residual_variance: j.residual_variance,
-            rotation: j.rotation_parameterization.parse()?,
+            rotation: ResultFormatError::parse_name(
+                "rotation_parameterization",
+                &j.rotation_parameterization,
+            )?,
             tree_parent: j.tree_parent,
             initial_rms: j.initial_rms,
             warnings: j.warnings,

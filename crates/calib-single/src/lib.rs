@@ -47,7 +47,9 @@ pub use calib_core::{error, init, options};
 pub use calibrate::{calibrate, reproject};
 pub use compare::{ModelComparison, ModelRow, compare_models};
 pub use observations::{ImageSize, Observations, ReadError, View};
-pub use result::{Calibration, CameraEstimate, SkippedView, StageTimes, ViewResult};
+pub use result::{
+    Calibration, CameraEstimate, ResultFormatError, SkippedView, StageTimes, ViewResult,
+};
 
 pub use camera_model;
 /// The linear-algebra crate of the public API.

@@ -4,6 +4,7 @@
 
 use calib_core::ImageSize;
 use calib_core::init::StartMethod;
+pub use calib_core::result::ResultFormatError;
 pub use calib_core::result::{
     CameraEstimate, SkippedView, StageTimes, ViewResult, write_camera_summary,
 };
@@ -175,16 +176,19 @@ impl Calibration {
     }
 
     /// Reads a result written by [`Calibration::to_json`].
-    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
+    pub fn from_json(value: serde_json::Value) -> Result<Self, ResultFormatError> {
         let j: CalibrationJson =
-            deserialize_versioned(value, "calib-single-result/", "single-camera")?;
+            deserialize_versioned(value, "calib-single-result/", "single-camera result")?;
         Ok(Calibration {
             camera: j.camera.camera,
             intrinsics_std: j.camera.intrinsics_std,
             distortion_std: j.camera.distortion_std,
             fixed_parameters: j.camera.fixed_parameters,
             image_size: j.image_size,
-            rotation: j.rotation_parameterization.parse()?,
+            rotation: ResultFormatError::parse_name(
+                "rotation_parameterization",
+                &j.rotation_parameterization,
+            )?,
             views: j.views,
             skipped_views: j.skipped_views,
             rms: j.rms,
@@ -201,7 +205,7 @@ impl Calibration {
                 j.initial.cy,
             ),
             initial_rms: j.initial.rms,
-            initial_method: j.initial.method.parse()?,
+            initial_method: ResultFormatError::parse_name("initial.method", &j.initial.method)?,
             solver: j.solver,
             elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: j.stage_seconds,

@@ -423,7 +423,31 @@ fn result_json_has_the_documented_fields() {
     assert_eq!(back.views, r.views);
     assert_eq!(back.solver.iterations.len(), r.solver.iterations.len());
     assert_eq!(back.to_json(), json);
-    assert!(calib_single::Calibration::from_json(serde_json::json!({"format": "x"})).is_err());
+    // What cannot be read back says why, as a typed error.
+    use calib_single::{Calibration, ResultFormatError};
+    let err = Calibration::from_json(serde_json::json!({"format": "calib-stereo-result/2"}));
+    assert!(
+        matches!(&err, Err(ResultFormatError::WrongKind { expected, found })
+            if *expected == "single-camera result" && found == "calib-stereo-result/2"),
+        "{err:?}"
+    );
+    let mut unknown = json.clone();
+    unknown["rotation_parameterization"] = "quaternion".into();
+    let err = Calibration::from_json(unknown);
+    assert!(
+        matches!(&err, Err(ResultFormatError::UnknownName { key, reason })
+            if *key == "rotation_parameterization" && reason.contains("quaternion")),
+        "{err:?}"
+    );
+    let mut short = json.clone();
+    short["camera"]["dist_coeffs"] = serde_json::json!([0.1, 0.0]);
+    let err = Calibration::from_json(short).unwrap_err();
+    assert!(matches!(err, ResultFormatError::Malformed(_)), "{err:?}");
+    assert!(err.to_string().contains("coefficient"), "{err}");
+    let mut missing = json.clone();
+    missing.as_object_mut().unwrap().remove("rms");
+    let err = Calibration::from_json(missing).unwrap_err();
+    assert!(err.to_string().contains("`rms`"), "{err}");
 }
 
 #[test]

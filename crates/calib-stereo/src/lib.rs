@@ -35,9 +35,9 @@ pub mod options;
 pub mod result;
 pub mod synthetic;
 
-pub use calib_core::JsonFile;
 pub use calib_core::rig;
 pub use calib_core::rig::RigInit;
+pub use calib_core::{JsonFile, ResultFormatError};
 pub use calibrate::{calibrate_stereo, stereo_problem};
 pub use error::{Side, StereoError};
 pub use observations::{StereoObservations, StereoPair};

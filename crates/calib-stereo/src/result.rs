@@ -4,7 +4,9 @@
 
 use calib_core::init::StartMethod;
 pub use calib_core::result::CameraEstimate;
-use calib_core::result::{deserialize_versioned, duration_from_seconds, seconds};
+use calib_core::result::{
+    ResultFormatError, deserialize_versioned, duration_from_seconds, seconds,
+};
 use calib_core::warnings::{Warning, write_warnings};
 use camera_model::{AxisAngle, EulerXyz, Pose, RotationKind, RotationParameterization};
 use lm_solver::SolverReport;
@@ -259,9 +261,10 @@ impl StereoCalibration {
     }
 
     /// Reads a result written by [`StereoCalibration::to_json`].
-    pub fn from_json(value: serde_json::Value) -> Result<Self, String> {
-        let j: StereoJson = deserialize_versioned(value, "calib-stereo-result/", "stereo")?;
-        let rotation: RotationKind = j.rig_parameterization.parse()?;
+    pub fn from_json(value: serde_json::Value) -> Result<Self, ResultFormatError> {
+        let j: StereoJson = deserialize_versioned(value, "calib-stereo-result/", "stereo result")?;
+        let rotation: RotationKind =
+            ResultFormatError::parse_name("rig_parameterization", &j.rig_parameterization)?;
         let rig_rotation = from_rows(&j.r);
         Ok(StereoCalibration {
             left: j.left,
@@ -283,8 +286,8 @@ impl StereoCalibration {
             initial_rig: Pose::new(from_rows(&j.initial.r), j.initial.t.into()),
             initial_rms: j.initial.rms,
             initial_methods: [
-                j.initial.left_method.parse()?,
-                j.initial.right_method.parse()?,
+                ResultFormatError::parse_name("initial.left_method", &j.initial.left_method)?,
+                ResultFormatError::parse_name("initial.right_method", &j.initial.right_method)?,
             ],
             solver: j.solver,
             elapsed: duration_from_seconds(j.elapsed_seconds),

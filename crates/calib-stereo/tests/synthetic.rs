@@ -377,9 +377,19 @@ fn results_read_back() {
     assert_eq!(back.rig, r.rig);
     assert_eq!(back.pairs, r.pairs);
     assert_eq!(back.to_json(), json);
+    let err = StereoCalibration::from_json(serde_json::json!({"format": "calib-single-result/2"}))
+        .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "not a stereo result (format 'calib-single-result/2')"
+    );
+    let mut unknown = json.clone();
+    unknown["initial"]["right_method"] = "guesswork".into();
+    let err = StereoCalibration::from_json(unknown).unwrap_err();
     assert!(
-        StereoCalibration::from_json(serde_json::json!({"format": "calib-single-result/2"}))
-            .is_err()
+        matches!(&err, calib_stereo::ResultFormatError::UnknownName { key, .. }
+            if *key == "initial.right_method"),
+        "{err:?}"
     );
 }
 
