@@ -107,12 +107,22 @@ pub fn check_export_models(
     Ok(())
 }
 
-/// Writes rendered exports ([`render_exports`]), each file atomically; prints the files written
-/// unless quiet.
+/// Writes rendered exports ([`render_exports`]) as a group
+/// ([`calib_core::io::write_group_atomically`]: a failure leaves every previous file as it was);
+/// prints the files written unless quiet.
 pub fn write_rendered(files: &[(PathBuf, String, Format)], say: Say) -> Result<(), Failure> {
-    for (path, text, format) in files {
-        calib_core::write_atomically(path, text.as_bytes())
-            .map_err(|e| Failure(format!("--export {format}={}: {e}", path.display())))?;
+    let group: Vec<(PathBuf, &[u8])> = files
+        .iter()
+        .map(|(path, text, _)| (path.clone(), text.as_bytes()))
+        .collect();
+    calib_core::io::write_group_atomically(&group).map_err(|(failed, e)| {
+        let format = files
+            .iter()
+            .find(|(path, _, _)| *path == failed)
+            .map_or(String::new(), |(_, _, f)| f.to_string());
+        Failure(format!("--export {format}={}: {e}", failed.display()))
+    })?;
+    for (path, _, format) in files {
         say.text(&format!("wrote {} ({format})\n", path.display()))?;
     }
     Ok(())

@@ -993,7 +993,7 @@ fn reports_from_results_and_calibrate_commands() {
             .arg(&dir),
     );
     assert!(String::from_utf8_lossy(&run.stdout).contains("index.html"));
-    let page = check(&dir, 7);
+    let page = check(&dir, 8);
     assert!(page.contains("one-to-one over the whole image") && page.contains("mrcal"));
     let dir = temp("rep-stereo");
     run_ok(
@@ -1001,7 +1001,7 @@ fn reports_from_results_and_calibrate_commands() {
             .args(["stereo", &data("sourishg1/stereo.json"), "-q", "--report"])
             .arg(&dir),
     );
-    check(&dir, 15); // seven per camera and the rig layout
+    check(&dir, 17); // eight per camera and the rig layout
     let dir = temp("rep-cmd");
     run_ok(
         calib()
@@ -1010,7 +1010,7 @@ fn reports_from_results_and_calibrate_commands() {
             .args(["--observations", &data("sourishg1/left.json"), "-q", "-o"])
             .arg(&dir),
     );
-    check(&dir, 7);
+    check(&dir, 8);
     let dir = temp("rep-bare");
     run_ok(
         calib()

@@ -161,6 +161,56 @@ pub trait JsonFile: Sized {
 /// to disk, then renamed over `path`. A failure half way (full disk, killed process) leaves any
 /// previous file at `path` untouched.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> std::io::Result<()> {
+    let temporary = stage(path, contents)?;
+    let renamed = std::fs::rename(&temporary, path);
+    if renamed.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    renamed
+}
+
+/// Writes several files as a group: each into a temporary file beside it, flushed to disk, and
+/// only when all are written, each renamed over its path. A failure while writing (full disk, a
+/// folder where a file should go) leaves every previous file untouched and removes the temporary
+/// files; the renames that follow are the only step that can leave the group half replaced.
+/// The error names the path that failed.
+pub fn write_group_atomically(
+    files: &[(std::path::PathBuf, &[u8])],
+) -> Result<(), (std::path::PathBuf, std::io::Error)> {
+    let mut temporaries: Vec<std::path::PathBuf> = Vec::with_capacity(files.len());
+    let cleanup = |temporaries: &[std::path::PathBuf]| {
+        for t in temporaries {
+            let _ = std::fs::remove_file(t);
+        }
+    };
+    for (path, contents) in files {
+        let staged = if path.is_dir() {
+            Err(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "a folder is in the way of this file",
+            ))
+        } else {
+            stage(path, contents)
+        };
+        match staged {
+            Ok(t) => temporaries.push(t),
+            Err(e) => {
+                cleanup(&temporaries);
+                return Err((path.clone(), e));
+            }
+        }
+    }
+    for (i, ((path, _), temporary)) in files.iter().zip(&temporaries).enumerate() {
+        if let Err(e) = std::fs::rename(temporary, path) {
+            cleanup(&temporaries[i..]);
+            return Err((path.clone(), e));
+        }
+    }
+    Ok(())
+}
+
+/// Writes `contents` into a new temporary file beside `path`, flushed to disk; returns its path.
+fn stage(path: &Path, contents: &[u8]) -> std::io::Result<std::path::PathBuf> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
@@ -192,14 +242,14 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> std::io::Result<()> {
             Err(e) => return Err(e),
         }
     };
-    let written = file
-        .write_all(contents)
-        .and_then(|()| file.sync_all())
-        .and_then(|()| std::fs::rename(&temporary, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&temporary);
+    let written = file.write_all(contents).and_then(|()| file.sync_all());
+    match written {
+        Ok(()) => Ok(temporary),
+        Err(e) => {
+            let _ = std::fs::remove_file(&temporary);
+            Err(e)
+        }
     }
-    written
 }
 
 #[cfg(test)]
@@ -227,6 +277,25 @@ mod tests {
         assert!(write_atomically(&dir.join("missing/b.json"), b"x").is_err());
         let leftovers = std::fs::read_dir(&dir).unwrap().count();
         assert_eq!(leftovers, 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_group_is_written_whole_or_not_at_all() {
+        let dir = std::env::temp_dir().join(format!("calib-core-group-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("b.json")).unwrap();
+        let (a, b) = (dir.join("a.json"), dir.join("b.json"));
+        write_atomically(&a, b"old").unwrap();
+        // The second path is a folder: nothing is replaced, no temporary file is left.
+        let (failed, _) =
+            write_group_atomically(&[(a.clone(), b"new"), (b.clone(), b"new")]).unwrap_err();
+        assert_eq!(failed, b);
+        assert_eq!(std::fs::read(&a).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+        std::fs::remove_dir(&b).unwrap();
+        write_group_atomically(&[(a.clone(), b"new"), (b.clone(), b"also")]).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"new");
+        assert_eq!(std::fs::read(&b).unwrap(), b"also");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -5,6 +5,8 @@
 //!
 //! * `residuals-CAM.svg`: each observed corner's reprojection error as an arrow (scaled),
 //!   outliers (rejected points) in red;
+//! * `mean-residuals-CAM.svg`: the mean error of the used corners per cell of the image, as
+//!   arrows (systematic patterns the per-corner arrows hide in their noise);
 //! * `scatter-CAM.svg`: the errors `(dx, dy)` as a scatter, outliers in red;
 //! * `coverage-CAM.svg`: how many corners were observed in each cell of the image;
 //! * `rms-CAM.svg`: RMS per view, worst first;
@@ -71,6 +73,8 @@ pub struct ReportInput {
     pub title: String,
     /// The calibration's summary text (shown as is).
     pub summary: String,
+    /// The result's warnings (`code: message`), shown in a box at the top of the page.
+    pub warnings: Vec<String>,
     /// The cameras.
     pub cameras: Vec<ReportCamera>,
     /// The layout of a rig (stereo or N cameras), drawn once for the whole page; `None` for a
@@ -214,6 +218,7 @@ impl ReportInput {
         Ok(ReportInput {
             title: "Single-camera calibration".into(),
             summary: result.summary(),
+            warnings: result.warnings.iter().map(ToString::to_string).collect(),
             cameras: vec![ReportCamera {
                 name: "camera".into(),
                 camera: result.camera.clone(),
@@ -275,6 +280,7 @@ impl ReportInput {
         Ok(ReportInput {
             title: "Stereo calibration".into(),
             summary: result.summary(),
+            warnings: result.warnings.iter().map(ToString::to_string).collect(),
             cameras,
             layout: Some(RigLayout {
                 transforms: vec![Pose::identity(), result.rig],
@@ -340,6 +346,7 @@ impl ReportInput {
         Ok(ReportInput {
             title: format!("Rig calibration ({} cameras)", result.cameras.len()),
             summary: result.summary(),
+            warnings: result.warnings.iter().map(ToString::to_string).collect(),
             cameras,
             layout: Some(RigLayout {
                 transforms: result.cameras.iter().map(|c| c.transform).collect(),
@@ -447,6 +454,52 @@ fn colour_bar<'b>(
     Ok(top)
 }
 
+/// At most this many views in the RMS-per-view chart (the worst ones).
+const MAX_RMS_BARS: usize = 60;
+
+/// Band edges of the projection-uncertainty map, pixels: below the first, between each pair,
+/// above the last.
+const UNCERTAINTY_BANDS: [f64; 9] = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0];
+
+/// Draws a colour bar of `edges.len() + 1` bands of equal width labelled with their edges along
+/// the bottom of `root` and returns the area above it for the map.
+fn band_bar<'b>(
+    root: &DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    edges: &[f64],
+    label: &str,
+) -> DrawResult<DrawingArea<SVGBackend<'b>, plotters::coord::Shift>> {
+    let (_, h) = root.dim_in_pixel();
+    let (top, bottom) = root.split_vertically(h.saturating_sub(BAR_HEIGHT));
+    let n = edges.len() + 1;
+    let mut c = ChartBuilder::on(&bottom)
+        .margin_left(55)
+        .margin_right(20)
+        .x_label_area_size(22)
+        .build_cartesian_2d(0.0..n as f64, 0.0..1.0)?;
+    c.configure_mesh()
+        .disable_mesh()
+        .disable_y_axis()
+        .x_labels(n + 1)
+        .x_label_formatter(&|x| {
+            let k = x.round() as usize;
+            if (x - x.round()).abs() < 1e-6 && (1..n).contains(&k) {
+                format!("{}", edges[k - 1])
+            } else {
+                String::new()
+            }
+        })
+        .x_desc(label)
+        .x_label_style(("sans-serif", 10))
+        .draw()?;
+    c.draw_series((0..n).map(|i| {
+        Rectangle::new(
+            [(i as f64, 0.0), (i as f64 + 1.0, 1.0)],
+            colour((i as f64 + 0.5) / n as f64).filled(),
+        )
+    }))?;
+    Ok(top)
+}
+
 /// Residuals `projected - measured` of each point of each view with points.
 fn residuals(camera: &ReportCamera) -> Vec<Vec<Residual>> {
     camera
@@ -494,27 +547,19 @@ fn image_chart<'a, 'b>(
     Ok(chart)
 }
 
-/// Writes the report into `dir` (created if needed): `index.html` and the SVG files, each
-/// atomically. Returns the files written.
+/// Writes the report into `dir` (created if needed): `index.html` and the SVG files. Every plot
+/// is drawn before anything is written, and the files are written as a group
+/// ([`calib_core::io::write_group_atomically`]): a failure leaves a previous report in `dir` as it
+/// was. Plots of a previous report that this one does not have (another camera's, or those
+/// needing observations) are removed, so the folder never mixes two reports. Returns the files
+/// written.
 pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, ExportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ExportError::Write {
-        path: dir.display().to_string(),
-        source,
-    })?;
-    let mut written = Vec::new();
+    let mut files: Vec<(String, String)> = Vec::new();
     let mut sections = String::new();
     if let Some(layout) = &input.layout {
         let text = layout_svg(input, layout)
             .map_err(|e| ExportError::invalid("report of the rig layout", e.to_string()))?;
-        let file = "layout.svg";
-        let path = dir.join(file);
-        calib_core::write_atomically(&path, text.as_bytes()).map_err(|source| {
-            ExportError::Write {
-                path: path.display().to_string(),
-                source,
-            }
-        })?;
-        written.push(path);
+        let file = "layout.svg".to_string();
         let _ = writeln!(
             sections,
             "<h2>Rig</h2>\n<figure><h3>Rig layout</h3><img src=\"{file}\" alt=\"Rig layout\"><figcaption>{}</figcaption></figure>",
@@ -522,9 +567,11 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
                 "Every camera (frustum, labelled) and the board in every frame (dots at the board origin, coloured by frame), in the reference camera's frame (board units), seen from above (from the reference camera's -y, its 'up'). Check that the cameras stand where they are mounted: a camera on the wrong side or facing away means mislabelled images or cameras."
             )
         );
+        files.push((file, text));
     }
-    for camera in &input.cameras {
-        let (plots, notes) = camera_plots(camera).map_err(|e| {
+    let suffixes = file_suffixes(&input.cameras);
+    for (camera, suffix) in input.cameras.iter().zip(&suffixes) {
+        let (plots, notes) = camera_plots(camera, suffix).map_err(|e| {
             ExportError::invalid(format!("report of camera '{}'", camera.name), e.to_string())
         })?;
         let _ = writeln!(
@@ -539,14 +586,6 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
             let _ = writeln!(sections, "<p class=\"note\">{}</p>", html(&note));
         }
         for (plot, text) in plots {
-            let path = dir.join(&plot.file);
-            calib_core::write_atomically(&path, text.as_bytes()).map_err(|source| {
-                ExportError::Write {
-                    path: path.display().to_string(),
-                    source,
-                }
-            })?;
-            written.push(path);
             let _ = writeln!(
                 sections,
                 "<figure><h3>{}</h3><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>",
@@ -555,20 +594,102 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
                 html(&plot.title),
                 html(&plot.caption)
             );
+            files.push((plot.file, text));
         }
     }
+    let warnings = if input.warnings.is_empty() {
+        String::new()
+    } else {
+        let items: String = input
+            .warnings
+            .iter()
+            .map(|w| format!("<li>{}</li>", html(w)))
+            .collect();
+        format!(
+            "<div class=\"warnings\"><h2>{} warning{}: read before using this calibration</h2><ul>{items}</ul></div>\n",
+            input.warnings.len(),
+            if input.warnings.len() == 1 { "" } else { "s" }
+        )
+    };
     let page = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:1400px;margin:1em auto;padding:0 1em}}figure{{display:inline-block;vertical-align:top;width:660px;margin:0.5em}}figure img{{width:640px;border:1px solid #ccc}}figcaption{{font-size:0.9em;color:#333}}pre{{background:#f4f4f4;padding:0.5em;overflow-x:auto}}.note{{color:#a40}}</style></head>\n<body><h1>{title}</h1>\n<pre>{summary}</pre>\n{sections}<p>How to read these plots: docs/after-calibration.md.</p></body></html>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:1400px;margin:1em auto;padding:0 1em}}figure{{display:inline-block;vertical-align:top;width:660px;margin:0.5em}}figure img{{width:640px;border:1px solid #ccc}}figcaption{{font-size:0.9em;color:#333}}pre{{background:#f4f4f4;padding:0.5em;white-space:pre-wrap}}.note{{color:#a40}}.warnings{{background:#fff4e0;border:2px solid #d80;padding:0.2em 1em;margin:1em 0}}.warnings h2{{font-size:1.1em;color:#a40}}.warnings li{{margin:0.4em 0}}</style></head>\n<body><h1>{title}</h1>\n{warnings}<pre>{summary}</pre>\n{sections}<p>How to read these plots: docs/after-calibration.md.</p></body></html>\n",
         title = html(&input.title),
         summary = html(&input.summary),
     );
-    let index = dir.join("index.html");
-    calib_core::write_atomically(&index, page.as_bytes()).map_err(|source| ExportError::Write {
-        path: index.display().to_string(),
+    files.push(("index.html".to_string(), page));
+
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::Write {
+        path: dir.display().to_string(),
         source,
     })?;
-    written.push(index);
-    Ok(written)
+    let stale = previous_plots(&dir.join("index.html"));
+    let paths: Vec<(PathBuf, &[u8])> = files
+        .iter()
+        .map(|(file, text)| (dir.join(file), text.as_bytes()))
+        .collect();
+    calib_core::io::write_group_atomically(&paths).map_err(|(path, source)| {
+        ExportError::Write {
+            path: path.display().to_string(),
+            source,
+        }
+    })?;
+    for old in stale {
+        if !files.iter().any(|(file, _)| *file == old) {
+            let _ = std::fs::remove_file(dir.join(old));
+        }
+    }
+    Ok(paths.into_iter().map(|(path, _)| path).collect())
+}
+
+/// The plot files a previous report's `index.html` shows (plain `*.svg` names in this folder
+/// only), to be removed when the new report does not write them.
+fn previous_plots(index: &Path) -> Vec<String> {
+    let Ok(text) = std::fs::read_to_string(index) else {
+        return Vec::new();
+    };
+    text.split("<img src=\"")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next())
+        .filter(|file| {
+            file.ends_with(".svg")
+                && !file.starts_with('.')
+                && file
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+        })
+        .map(str::to_string)
+        .collect()
+}
+
+/// The file-name suffix of each camera's plots: its name with characters outside
+/// `[A-Za-z0-9_-]` replaced by `_`, and the camera's index appended where two names would give
+/// the same suffix or the name has no such characters at all (`左カメラ` and `右カメラ`, or
+/// `cam 1` and `cam.1`), so one camera's plots never overwrite another's.
+fn file_suffixes(cameras: &[ReportCamera]) -> Vec<String> {
+    let plain: Vec<String> = cameras.iter().map(|c| safe_name(&c.name)).collect();
+    let suffixes: Vec<String> = plain
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let shared = plain.iter().filter(|other| *other == name).count() > 1;
+            let meaningless = name.chars().all(|c| c == '_');
+            if shared || meaningless {
+                format!("{name}-{i}")
+            } else {
+                name.clone()
+            }
+        })
+        .collect();
+    let unique = suffixes
+        .iter()
+        .enumerate()
+        .all(|(i, a)| suffixes[..i].iter().all(|b| b != a));
+    if unique {
+        suffixes
+    } else {
+        // A name like `cam-1` beside two cameras named `cam`: number them all.
+        (0..cameras.len()).map(|i| format!("camera-{i}")).collect()
+    }
 }
 
 fn html(s: &str) -> String {
@@ -590,8 +711,7 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
-fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
-    let name = safe_name(&camera.name);
+fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
     let size = camera.image_size;
     let chart = chart_size(size);
     let mut plots = Vec::new();
@@ -600,20 +720,19 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
     let have_points = camera.views.iter().any(|v| v.points.is_some());
     if have_points {
         let all: Vec<&Residual> = res.iter().flatten().collect();
-        let max_err = all
-            .iter()
-            .filter(|r| !r.2)
-            .map(|r| r.1.norm())
-            .fold(0.0, f64::max)
-            .max(1e-6);
-        // Arrows: the largest inlier error drawn 5% of the image width long.
-        let scale = 0.05 * size.width as f64 / max_err;
+        let inlier_norms: Vec<f64> = all.iter().filter(|r| !r.2).map(|r| r.1.norm()).collect();
+        // Arrows: the 95th percentile of the inlier errors drawn 3% of the image width long (not
+        // the largest: one gross error would shrink every other arrow to a dot).
+        let typical = percentile(&inlier_norms, 0.95).max(1e-6);
+        let scale = 0.03 * size.width as f64 / typical;
         let text = svg(
             |root| {
                 let mut c = image_chart(
                     root,
                     size,
-                    &format!("reprojection errors x{scale:.0} (red: rejected outliers)"),
+                    &format!(
+                        "reprojection errors x{scale:.0}, 95% under {typical:.2} px (red: rejected)"
+                    ),
                 )?;
                 c.draw_series(all.iter().filter(|r| !r.2).map(|(m, e, _)| {
                     PathElement::new(
@@ -635,13 +754,20 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
             },
             chart,
         )?;
-        plots.push((Plot { file: format!("residuals-{name}.svg"), title: "Reprojection errors over the image".into(), caption: format!("Each observed corner with its error (projected minus measured) as an arrow, magnified {scale:.0} times; rejected outliers as red crosses. Errors should look random; arrows that line up (all outward at the edges, swirling) mean the lens model misses something.") }, text));
+        plots.push((Plot { file: format!("residuals-{name}.svg"), title: "Reprojection errors over the image".into(), caption: format!("Each observed corner with its error (projected minus measured) as an arrow, magnified {scale:.0} times (an arrow {:.0} px long is {typical:.2} px, the error 95% of the used corners stay under); rejected outliers as red crosses. Errors should look random; arrows that line up (all outward at the edges, swirling) mean the lens model misses something: the mean-error plot below shows such patterns without the noise.", 0.03 * size.width as f64) }, text));
+        // Axes from the used corners: rejected ones far outside are drawn at the border.
         let lim = all
             .iter()
+            .filter(|r| !r.2)
             .map(|r| r.1.x.abs().max(r.1.y.abs()))
             .fold(0.0, f64::max)
             .max(1e-3)
             * 1.1;
+        let clamp = |e: &Vector2<f64>| (e.x.clamp(-lim, lim), e.y.clamp(-lim, lim));
+        let beyond = all
+            .iter()
+            .filter(|r| r.1.x.abs() > lim || r.1.y.abs() > lim)
+            .count();
         let text = svg(
             |root| {
                 let mut c = ChartBuilder::on(root)
@@ -652,26 +778,27 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
                     .margin(10)
                     .x_label_area_size(30)
                     .y_label_area_size(45)
-                    .build_cartesian_2d(-lim..lim, -lim..lim)?;
+                    .build_cartesian_2d(-lim..lim, lim..-lim)?;
                 c.configure_mesh()
-                    .x_desc("dx (px)")
-                    .y_desc("dy (px)")
+                    .x_desc("dx (px), right")
+                    .y_desc("dy (px), down as in the image")
                     .draw()?;
                 c.draw_series(
                     all.iter()
                         .filter(|r| !r.2)
-                        .map(|(_, e, _)| Circle::new((e.x, e.y), 2, BLUE.mix(0.5).filled())),
+                        .map(|(_, e, _)| Circle::new(clamp(e), 2, BLUE.mix(0.5).filled())),
                 )?;
                 c.draw_series(
                     all.iter()
                         .filter(|r| r.2)
-                        .map(|(_, e, _)| Cross::new((e.x, e.y), 4, RED.stroke_width(2))),
+                        .map(|(_, e, _)| Cross::new(clamp(e), 4, RED.stroke_width(2))),
                 )?;
                 Ok(())
             },
             (520, 520),
         )?;
-        plots.push((Plot { file: format!("scatter-{name}.svg"), title: "Error scatter".into(), caption: "Every point's error (dx, dy). A round cloud centred at zero is good; an elongated or offset cloud, or several clusters, point to a model or data problem.".into() }, text));
+        plots.push((Plot { file: format!("scatter-{name}.svg"), title: "Error scatter".into(), caption: format!("Every point's error (dx, dy; dy down, as in the image). A round cloud centred at zero is good; an elongated or offset cloud, or several clusters, point to a model or data problem. The axes span the used corners; {beyond} rejected corner{} beyond them {} drawn on the border.", if beyond == 1 { "" } else { "s" }, if beyond == 1 { "is" } else { "are" }) }, text));
+        plots.push(mean_residuals_plot(camera, &all, typical, name)?);
         // Coverage: counts per cell of about 1/16 of the width.
         let cell = (size.width.max(size.height) as f64 / 16.0).max(1.0);
         let (nx, ny) = (
@@ -679,7 +806,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
             (size.height as f64 / cell).ceil() as usize,
         );
         let mut counts = vec![0usize; nx * ny];
-        for (m, _, _) in &all {
+        for (m, _, _) in all.iter().filter(|r| !r.2) {
             let (i, j) = ((m.x + 0.5) / cell, (m.y + 0.5) / cell);
             if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
                 counts[j as usize * nx + i as usize] += 1;
@@ -694,7 +821,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
                     &map,
                     size,
                     &format!(
-                        "observed corners per {cell:.0} px cell (max {most:.0}; {empty} of {} cells empty)",
+                        "used corners per {cell:.0} px cell (max {most:.0}; {empty} of {} cells empty)",
                         nx * ny
                     ),
                 )?;
@@ -717,58 +844,87 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
             },
             heat_size(size),
         )?;
-        plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: "How many corners were observed in each cell (grey: none). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.".into() }, text));
+        plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: "How many corners the calibration used in each cell (grey: none; rejected outliers are not counted). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.".into() }, text));
     } else {
         notes.push("No observations were given (calib report --observations OBS.json): the residual, scatter, coverage and uncertainty plots are left out.".to_string());
     }
 
-    // Per-view RMS, worst first.
+    // Per-view RMS, worst first: one labelled horizontal bar per view (the worst
+    // `MAX_RMS_BARS` when there are more).
     let mut order: Vec<&ReportView> = camera.views.iter().collect();
     order.sort_by(|a, b| b.rms.total_cmp(&a.rms));
-    let top = order.first().map_or(1.0, |v| v.rms).max(1e-6) * 1.1;
-    let n = order.len();
+    let total = order.len();
+    order.truncate(MAX_RMS_BARS);
+    let top = order.first().map_or(1.0, |v| v.rms).max(1e-6) * 1.15;
+    let n = order.len().max(1);
+    let rejected = |v: &ReportView| v.rejected.len();
+    let label_width = order
+        .iter()
+        .map(|v| v.name.chars().count())
+        .max()
+        .unwrap_or(4)
+        .clamp(4, 40) as u32
+        * 6
+        + 10;
     let text = svg(
         |root| {
             let mut c = ChartBuilder::on(root)
                 .caption("RMS per view, worst first", ("sans-serif", 16))
                 .margin(10)
-                .x_label_area_size(70)
-                .y_label_area_size(45)
-                .build_cartesian_2d(0.0..n.max(1) as f64, 0.0..top)?;
+                .x_label_area_size(30)
+                .y_label_area_size(label_width)
+                .build_cartesian_2d(0.0..top, n as f64..0.0)?;
             c.configure_mesh()
-                .y_desc("RMS (px)")
-                .x_labels(n.clamp(1, 40))
-                .x_label_formatter(&|x| {
-                    order
-                        .get(x.floor() as usize)
-                        .map(|v| v.name.clone())
-                        .unwrap_or_default()
+                .x_desc("RMS of the used corners (px)")
+                .y_labels(n * 2 + 1)
+                .y_label_formatter(&|y| {
+                    // Labels at bar centres only (k + 0.5).
+                    let k = (y - 0.5).round();
+                    if (y - 0.5 - k).abs() > 1e-6 || k < 0.0 {
+                        return String::new();
+                    }
+                    order.get(k as usize).map_or(String::new(), |v| {
+                        let name: String = v.name.chars().take(40).collect();
+                        name
+                    })
                 })
-                .x_label_style(
-                    ("sans-serif", 10)
-                        .into_font()
-                        .transform(FontTransform::Rotate90),
-                )
-                .disable_x_mesh()
+                .y_label_style(("sans-serif", 10))
+                .disable_y_mesh()
                 .draw()?;
             c.draw_series(order.iter().enumerate().map(|(i, v)| {
                 Rectangle::new(
-                    [(i as f64 + 0.1, 0.0), (i as f64 + 0.9, v.rms)],
+                    [(0.0, i as f64 + 0.15), (v.rms, i as f64 + 0.85)],
                     BLUE.mix(0.7).filled(),
+                )
+            }))?;
+            c.draw_series(order.iter().enumerate().map(|(i, v)| {
+                let note = match rejected(v) {
+                    0 => format!("{:.3}", v.rms),
+                    k => format!("{:.3} ({k} rejected)", v.rms),
+                };
+                Text::new(
+                    note,
+                    (v.rms + top * 0.01, i as f64 + 0.2),
+                    ("sans-serif", 10).into_font(),
                 )
             }))?;
             Ok(())
         },
-        (640, 360),
+        (640, (60 + 16 * n as u32).max(140)),
     )?;
-    plots.push((Plot { file: format!("rms-{name}.svg"), title: "RMS per view".into(), caption: "Each view's RMS reprojection error, worst first. A view far above the others (a blurred image, a mislabelled board) is worth checking or removing.".into() }, text));
+    let shown = if total > order.len() {
+        format!(" The {} worst of {total} views are shown.", order.len())
+    } else {
+        String::new()
+    };
+    plots.push((Plot { file: format!("rms-{name}.svg"), title: "RMS per view".into(), caption: format!("Each view's RMS reprojection error over the corners the calibration used, worst first, with the number of corners rejected as outliers in that view. A view far above the others (a blurred image, a mislabelled board), or with many rejected corners, is worth checking or removing.{shown}") }, text));
 
     plots.push((Plot { file: format!("poses-{name}.svg"), title: "Board poses".into(), caption: "The camera (frustum at the origin, looking along z) and the board in every view, in the camera's frame (board units). Good data shows boards at several distances and tilted in different directions, not all parallel to the image.".into() }, poses_svg(camera)?));
     let validity = camera
         .camera
         .validity(camera.image_size.width, camera.image_size.height);
     let (text, max_shift) = distortion_svg(camera, &validity)?;
-    let valid_text = if validity.covers_image(0.0) {
+    let valid_text = if validity.covers_image(calib_core::diagnostics::VALIDITY_MARGIN) {
         if validity.valid_radius_px.is_finite() {
             let shown = if validity.valid_radius_px < validity.image_radius_px {
                 "black dashes where the fold crosses the image: the fold is farther than the image border along every direction, nearer than the farthest corner along some"
@@ -787,7 +943,7 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         }
     } else {
         format!(
-            "The model stops being one-to-one {:.0} px from the principal point (red dashes mark the fold; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the dashes the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
+            "The model stops being one-to-one {:.0} px from the principal point, inside the image or less than 5% beyond its border (red dashes where the fold crosses the image; the farthest image corner is {:.0} px away, coverage {:.2}): beyond the dashes the distortion folds over and pixels there cannot be trusted (see the model-invalid warning; a different --model may fit).",
             validity.valid_radius_px, validity.image_radius_px, validity.coverage
         )
     };
@@ -799,6 +955,87 @@ fn camera_plots(camera: &ReportCamera) -> DrawResult<CameraPlots> {
         }
     }
     Ok((plots, notes))
+}
+
+/// The mean error of the used corners in each cell of the image (about 1/12 of its larger side),
+/// as an arrow from the cell's centre: a pattern the per-corner arrows hide in their noise (a
+/// radial trend when the lens model is too simple). `typical` is the 95th percentile of the
+/// corners' errors; an arrow one cell long is that size. Cells with fewer than 3 corners are
+/// left out.
+fn mean_residuals_plot(
+    camera: &ReportCamera,
+    all: &[&Residual],
+    typical: f64,
+    name: &str,
+) -> DrawResult<(Plot, String)> {
+    let size = camera.image_size;
+    let cell = (size.width.max(size.height) as f64 / 12.0).max(1.0);
+    let (nx, ny) = (
+        (size.width as f64 / cell).ceil() as usize,
+        (size.height as f64 / cell).ceil() as usize,
+    );
+    let mut sums = vec![(Vector2::zeros(), 0usize); nx * ny];
+    for (m, e, _) in all.iter().filter(|r| !r.2) {
+        let (i, j) = ((m.x + 0.5) / cell, (m.y + 0.5) / cell);
+        if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
+            let s = &mut sums[j as usize * nx + i as usize];
+            s.0 += e;
+            s.1 += 1;
+        }
+    }
+    let means: Vec<(Vector2<f64>, Vector2<f64>)> = sums
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.1 >= 3)
+        .map(|(k, s)| {
+            let centre = Vector2::new(
+                ((k % nx) as f64 + 0.5) * cell - 0.5,
+                ((k / nx) as f64 + 0.5) * cell - 0.5,
+            );
+            (centre, s.0 / s.1 as f64)
+        })
+        .collect();
+    let largest = means.iter().map(|(_, e)| e.norm()).fold(0.0, f64::max);
+    let scale = cell / typical.max(1e-12);
+    let text = svg(
+        |root| {
+            let mut c = image_chart(
+                root,
+                size,
+                &format!("mean error per {cell:.0} px cell (one cell = {typical:.2} px)"),
+            )?;
+            c.draw_series(means.iter().map(|(q, _)| {
+                Rectangle::new(
+                    [
+                        (q.x - 0.5 * cell, q.y - 0.5 * cell),
+                        (q.x + 0.5 * cell, q.y + 0.5 * cell),
+                    ],
+                    RGBColor(240, 240, 240).filled(),
+                )
+            }))?;
+            c.draw_series(means.iter().map(|(q, e)| {
+                let tip = q + scale * e;
+                PathElement::new(vec![(q.x, q.y), (tip.x, tip.y)], BLUE.stroke_width(2))
+            }))?;
+            c.draw_series(
+                means
+                    .iter()
+                    .map(|(q, _)| Circle::new((q.x, q.y), 2, BLUE.filled())),
+            )?;
+            Ok(())
+        },
+        chart_size(size),
+    )?;
+    Ok((
+        Plot {
+            file: format!("mean-residuals-{name}.svg"),
+            title: "Mean error over the image".into(),
+            caption: format!(
+                "The mean error (projected minus measured) of the used corners in each {cell:.0} px cell with 3 or more of them (grey), as an arrow from the cell's centre (dot); an arrow one cell long is {typical:.2} px, the error 95% of the corners stay under. The largest mean is {largest:.3} px. Noise averages out here: short arrows in random directions are good; arrows that line up (pointing outward or inward at the edges, turning around the centre) are a pattern the lens model does not fit: try a model with more terms (calib single --compare-models)."
+            ),
+        },
+        text,
+    ))
 }
 
 fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
@@ -1069,7 +1306,7 @@ fn distortion_svg(
             )?;
             // The fold, where the walk found it (an ellipse when fx != fy): dashes inside the
             // image, every other segment between neighbouring rays.
-            let style = if validity.covers_image(0.0) {
+            let style = if validity.covers_image(calib_core::diagnostics::VALIDITY_MARGIN) {
                 BLACK.stroke_width(2)
             } else {
                 RED.stroke_width(3)
@@ -1115,6 +1352,16 @@ fn significant(v: f64) -> String {
     }
     let digits = (3 - v.abs().log10().floor() as i32).max(0) as usize;
     format!("{v:.digits$}")
+}
+
+/// The `q` quantile (0..=1) of the finite `values`; 0 if there are none.
+fn percentile(values: &[f64], q: f64) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
 fn median(mut values: Vec<f64>) -> f64 {
@@ -1216,16 +1463,24 @@ fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<UncertaintyPlot> {
             })
             .collect(),
     );
-    // Ten bands of equal width: a filled contour map.
-    let band = |v: f64| ((v / top * 10.0).floor().min(9.0) + 0.5) / 10.0;
+    // Fixed bands (pixels), the same on every report: a good calibration is dark, a poor one
+    // yellow, whatever its own range.
+    let band = |v: f64| {
+        let k = UNCERTAINTY_BANDS.iter().filter(|&&edge| v >= edge).count();
+        (k as f64 + 0.5) / (UNCERTAINTY_BANDS.len() + 1) as f64
+    };
     let text = svg(
         |root| {
-            let map = colour_bar(root, top, "projection std, worst direction (px)")?;
+            let map = band_bar(
+                root,
+                &UNCERTAINTY_BANDS,
+                "projection std, worst direction (px), fixed bands",
+            )?;
             let mut c = image_chart(
                 &map,
                 size,
                 &format!(
-                    "projection std (px) at distance {}: 10 bands from 0 to {top:.3}; median {median_d:.3}",
+                    "projection std (px) at distance {}: median {median_d:.3}, max {top:.3}",
                     significant(distance)
                 ),
             )?;

@@ -90,7 +90,7 @@ fn single_and_stereo_reports_reference_existing_well_formed_svgs() {
         &dir.join("single"),
     )
     .unwrap();
-    check_report(&dir.join("single"), 7);
+    check_report(&dir.join("single"), 8);
     // Without observations: the four plots that need none.
     write_report(
         &ReportInput::single(&result, None).unwrap(),
@@ -106,8 +106,8 @@ fn single_and_stereo_reports_reference_existing_well_formed_svgs() {
         &dir.join("stereo"),
     )
     .unwrap();
-    // Seven plots per camera and the rig's layout.
-    check_report(&dir.join("stereo"), 15);
+    // Eight plots per camera and the rig's layout.
+    check_report(&dir.join("stereo"), 17);
     // A result with the wrong observation file is refused.
     assert!(
         ReportInput::stereo(
@@ -147,7 +147,7 @@ fn rig_reports_show_every_camera_and_the_layout_and_refuse_other_observations() 
         assert!(camera.views.iter().all(|v| v.points.is_some()));
     }
     write_report(&input, &dir.join("rig")).unwrap();
-    check_report(&dir.join("rig"), 1 + 7 * 3);
+    check_report(&dir.join("rig"), 1 + 8 * 3);
     let page = std::fs::read_to_string(dir.join("rig").join("index.html")).unwrap();
     assert!(page.contains("layout.svg") && page.contains("Rig calibration (3 cameras)"));
     // Frames out of order: the stored RMS no longer matches, the report refuses the file.
@@ -330,6 +330,7 @@ fn distortion_plot_shows_the_validity_radius() {
         let input = ReportInput {
             title: "validity".into(),
             summary: String::new(),
+            warnings: Vec::new(),
             cameras: vec![ReportCamera {
                 name: "camera".into(),
                 camera,
@@ -378,5 +379,85 @@ fn distortion_plot_shows_the_validity_radius() {
     assert!(validity.valid_radius_px.is_infinite(), "{validity:?}");
     assert!(page.contains("no fold was found"), "{page}");
     assert!(!page.contains("inf)") && !page.contains(" inf"), "{page}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A report rewritten in the same folder never mixes two reports: cameras whose names differ only
+/// in characters a file name cannot hold (`左カメラ`, `右カメラ`) get their own plots; plots the
+/// new report does not have are removed; a write that fails leaves the previous report whole;
+/// warnings come first, in their own box.
+#[test]
+fn reports_in_one_folder_never_mix() {
+    let dir = std::env::temp_dir().join(format!("calib-export-report-mix-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let obs = calib_single::Observations::read(data("left.json")).unwrap();
+    let result =
+        calib_single::calibrate(&obs, &calib_single::CalibrationOptions::default()).unwrap();
+    let single = ReportInput::single(&result, Some(&obs)).unwrap();
+    let mut rig = single.clone();
+    rig.cameras.push(rig.cameras[0].clone());
+    rig.cameras[0].name = "左カメラ".into();
+    rig.cameras[1].name = "右カメラ".into();
+    rig.cameras[1].views.truncate(3);
+    write_report(&rig, &dir).unwrap();
+    check_report(&dir, 16);
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let rms: Vec<&str> = page
+        .split("<img src=\"")
+        .skip(1)
+        .map(|s| &s[..s.find('"').unwrap()])
+        .filter(|s| s.starts_with("rms-"))
+        .collect();
+    assert_eq!(rms.len(), 2);
+    assert_ne!(rms[0], rms[1], "two cameras share one plot file");
+    // The second camera's chart has its own three views, the first its 29.
+    let bars = |file: &str| {
+        std::fs::read_to_string(dir.join(file))
+            .unwrap()
+            .matches(".jpg\n")
+            .count()
+    };
+    assert_eq!((bars(rms[0]), bars(rms[1])), (29, 3));
+
+    // Rewritten without observations and for one camera: the other plots go.
+    let mut bare = ReportInput::single(&result, None).unwrap();
+    bare.warnings = vec!["warning [poorly-determined]: k2 is not determined".into()];
+    write_report(&bare, &dir).unwrap();
+    check_report(&dir, 3);
+    let svgs = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .ends_with(".svg")
+        })
+        .count();
+    assert_eq!(svgs, 3, "plots of the previous report were left behind");
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let warning = page.find("class=\"warnings\"").expect("no warnings box");
+    assert!(
+        warning < page.find("<pre>").unwrap(),
+        "warnings after the summary"
+    );
+    assert!(page.contains("1 warning: read before using this calibration"));
+
+    // A folder where a plot should go: refused, the previous report untouched, no temporaries.
+    std::fs::remove_file(dir.join("distortion-camera.svg")).unwrap();
+    std::fs::create_dir(dir.join("distortion-camera.svg")).unwrap();
+    let before = std::fs::read(dir.join("index.html")).unwrap();
+    let err = write_report(&single, &dir).unwrap_err().to_string();
+    assert!(err.contains("distortion-camera.svg"), "{err}");
+    assert_eq!(std::fs::read(dir.join("index.html")).unwrap(), before);
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.starts_with('.')), "{names:?}");
+    assert!(
+        !names.iter().any(|n| n.starts_with("residuals")),
+        "{names:?}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
