@@ -112,8 +112,36 @@ fn check(observations: &RigObservations, options: &RigOptions) -> Result<(), Rig
                 });
             }
         }
+        // Two cameras with the same corners saw one image: calibrated, they would stand at the
+        // same place (a zero baseline) without any complaint.
+        for (k, a) in frame.observations.iter().enumerate() {
+            if let Some(b) = frame.observations[..k]
+                .iter()
+                .find(|b| same_capture(&a.view, &b.view))
+            {
+                return Err(RigError::BadFrame {
+                    frame: f,
+                    reason: format!(
+                        "cameras '{}' and '{}' have the same corners (the same image given for both cameras?)",
+                        observations.cameras[b.camera].name, observations.cameras[a.camera].name
+                    ),
+                });
+            }
+        }
     }
     Ok(())
+}
+
+/// True if two views are one capture: the same board points, every pixel within
+/// [`SAME_CAPTURE_PX`] of the other's.
+fn same_capture(a: &View, b: &View) -> bool {
+    !a.object_points.is_empty()
+        && a.object_points == b.object_points
+        && a.image_points.len() == b.image_points.len()
+        && a.image_points
+            .iter()
+            .zip(&b.image_points)
+            .all(|(p, q)| (p - q).norm() <= SAME_CAPTURE_PX)
 }
 
 /// The lens model of camera `c`.
@@ -259,15 +287,9 @@ fn duplicate_frames(observations: &RigObservations) -> Vec<(usize, usize)> {
         a.observations.len() == b.observations.len()
             && !a.observations.is_empty()
             && a.observations.iter().all(|x| {
-                b.observations.iter().any(|y| {
-                    x.camera == y.camera
-                        && x.view.object_points == y.view.object_points
-                        && x.view
-                            .image_points
-                            .iter()
-                            .zip(&y.view.image_points)
-                            .all(|(p, q)| (p - q).norm() <= SAME_CAPTURE_PX)
-                })
+                b.observations
+                    .iter()
+                    .any(|y| x.camera == y.camera && same_capture(&x.view, &y.view))
             })
     };
     let frames = &observations.frames;

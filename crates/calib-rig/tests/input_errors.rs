@@ -109,6 +109,22 @@ fn malformed_frames_are_refused_with_their_index() {
     let error = calibrate_rig(&bad, &RigOptions::default()).unwrap_err();
     assert!(error.to_string().contains("frame 5"), "{error}");
 
+    // One image given for both cameras of a frame: refused (it calibrated to a zero baseline).
+    let f = (0..data.observations.frames.len())
+        .find(|&f| data.observations.frames[f].observations.len() == 2)
+        .unwrap();
+    let mut bad = data.observations.clone();
+    let first = bad.frames[f].observations[0].view.clone();
+    bad.frames[f].observations[1].view = first;
+    let error = calibrate_rig(&bad, &RigOptions::default()).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .starts_with(&format!("frame {f}: cameras '"))
+            && error.to_string().contains("have the same corners"),
+        "{error}"
+    );
+
     let empty = RigObservations {
         cameras: data.observations.cameras.clone(),
         frames: Vec::new(),
