@@ -454,6 +454,23 @@ fn colour_bar<'b>(
     Ok(top)
 }
 
+/// The polyline of an arrow from `tail` to `tip` (chart coordinates) with a head of two strokes
+/// a third of its length, 25 degrees off the shaft: barrel and pincushion fields, inward and
+/// outward errors, look different.
+fn arrow(tail: Vector2<f64>, tip: Vector2<f64>) -> Vec<(f64, f64)> {
+    let back = (tail - tip) / 3.0;
+    let (c, s) = (25f64.to_radians().cos(), 25f64.to_radians().sin());
+    let turn = |v: Vector2<f64>, s: f64| Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y);
+    let (a, b) = (tip + turn(back, s), tip + turn(back, -s));
+    vec![
+        (tail.x, tail.y),
+        (tip.x, tip.y),
+        (a.x, a.y),
+        (tip.x, tip.y),
+        (b.x, b.y),
+    ]
+}
+
 /// At most this many views in the RMS-per-view chart (the worst ones).
 const MAX_RMS_BARS: usize = 60;
 
@@ -997,35 +1014,35 @@ fn mean_residuals_plot(
         .collect();
     let largest = means.iter().map(|(_, e)| e.norm()).fold(0.0, f64::max);
     let scale = cell / typical.max(1e-12);
-    let text = svg(
-        |root| {
-            let mut c = image_chart(
-                root,
-                size,
-                &format!("mean error per {cell:.0} px cell (one cell = {typical:.2} px)"),
-            )?;
-            c.draw_series(means.iter().map(|(q, _)| {
-                Rectangle::new(
-                    [
-                        (q.x - 0.5 * cell, q.y - 0.5 * cell),
-                        (q.x + 0.5 * cell, q.y + 0.5 * cell),
-                    ],
-                    RGBColor(240, 240, 240).filled(),
-                )
-            }))?;
-            c.draw_series(means.iter().map(|(q, e)| {
-                let tip = q + scale * e;
-                PathElement::new(vec![(q.x, q.y), (tip.x, tip.y)], BLUE.stroke_width(2))
-            }))?;
-            c.draw_series(
-                means
-                    .iter()
-                    .map(|(q, _)| Circle::new((q.x, q.y), 2, BLUE.filled())),
-            )?;
-            Ok(())
-        },
-        chart_size(size),
-    )?;
+    let text =
+        svg(
+            |root| {
+                let mut c = image_chart(
+                    root,
+                    size,
+                    &format!("mean error per {cell:.0} px cell (one cell = {typical:.2} px)"),
+                )?;
+                c.draw_series(means.iter().map(|(q, _)| {
+                    Rectangle::new(
+                        [
+                            (q.x - 0.5 * cell, q.y - 0.5 * cell),
+                            (q.x + 0.5 * cell, q.y + 0.5 * cell),
+                        ],
+                        RGBColor(240, 240, 240).filled(),
+                    )
+                }))?;
+                c.draw_series(means.iter().map(|(q, e)| {
+                    PathElement::new(arrow(*q, q + scale * e), BLUE.stroke_width(2))
+                }))?;
+                c.draw_series(
+                    means
+                        .iter()
+                        .map(|(q, _)| Circle::new((q.x, q.y), 2, BLUE.filled())),
+                )?;
+                Ok(())
+            },
+            chart_size(size),
+        )?;
     Ok((
         Plot {
             file: format!("mean-residuals-{name}.svg"),
@@ -1299,7 +1316,10 @@ fn distortion_svg(
                             ((k / nx) as f64 + 0.5) * cell - 0.5,
                         );
                         Some(PathElement::new(
-                            vec![(x - arrow_scale * s.x, y - arrow_scale * s.y), (x, y)],
+                            arrow(
+                                Vector2::new(x - arrow_scale * s.x, y - arrow_scale * s.y),
+                                Vector2::new(x, y),
+                            ),
                             WHITE.stroke_width(1),
                         ))
                     }),
