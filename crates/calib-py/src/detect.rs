@@ -48,12 +48,15 @@ fn gray_pixels(image: &Bound<'_, PyAny>) -> PyResult<(Vec<u8>, usize, usize)> {
             )));
         }
     };
+    // Any strides: views such as `img[10:, 10:]`, `rgb[..., ::-1]` or `bgra[..., :3]` are read
+    // through their strides (ndarray's iteration is in logical, row-major order).
     let mut gray = Vec::with_capacity(h * w);
     if channels == 1 {
         gray.extend(view.iter().copied());
     } else {
+        // `into_dimensionality` only checks the number of axes (3 here), whatever the strides.
         let v = view
-            .into_shape_with_order((h, w, channels))
+            .into_dimensionality::<numpy::ndarray::Ix3>()
             .map_err(|e| PyValueError::new_err(format!("image: {e}")))?;
         for y in 0..h {
             for x in 0..w {

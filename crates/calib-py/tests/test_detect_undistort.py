@@ -39,6 +39,32 @@ def test_colour_grey_and_strided_images():
     assert np.array_equal(calib.detect_chessboard(wide[:, ::2], (9, 6)), reference)
 
 
+def test_colour_views_with_any_strides():
+    # Colour views that are not C-contiguous were refused ("IncompatibleLayout"): a crop, RGB
+    # turned to BGR by a reversed axis, the BGR channels of a BGRA image.
+    gray = calib.imread_gray(IMAGES / "left3.jpg")
+    reference = calib.detect_chessboard(gray, (9, 6))
+    bgr = np.repeat(gray[:, :, None], 3, axis=2)
+    padded = np.zeros((370, 650, 3), np.uint8)
+    padded[10:, 10:] = bgr
+    assert np.array_equal(calib.detect_chessboard(padded[10:, 10:], (9, 6)), reference)
+    rgb = np.ascontiguousarray(bgr[..., ::-1])
+    assert np.array_equal(calib.detect_chessboard(rgb[..., ::-1], (9, 6)), reference)
+    bgra = np.concatenate([bgr, np.full_like(gray[:, :, None], 7)], axis=2)
+    assert np.array_equal(calib.detect_chessboard(bgra[..., :3], (9, 6)), reference)
+    assert np.array_equal(calib.detect_chessboard(bgr[::-1, ::-1][::-1, ::-1], (9, 6)), reference)
+    # A real colour conversion through a strided view equals the contiguous copy's.
+    rng = np.random.default_rng(3)
+    colour = np.clip(bgr.astype(int) + rng.integers(-20, 21, bgr.shape), 0, 255).astype(np.uint8)
+    crop = np.zeros((370, 650, 4), np.uint8)
+    crop[10:, 10:, :3] = colour
+    view = crop[10:, 10:, :3]
+    assert not view.flags.c_contiguous
+    a = calib.detect_chessboard(view, (9, 6))
+    b = calib.detect_chessboard(np.ascontiguousarray(view), (9, 6))
+    assert a is not None and np.array_equal(a, b)
+
+
 def test_no_board_gives_none_or_the_reason():
     blank = np.full((200, 300), 128, np.uint8)
     assert calib.detect_chessboard(blank, (9, 6)) is None
