@@ -9,53 +9,69 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// The model a coefficient vector of `n` values implies (cv2's convention; 4 is Brown-Conrady,
-/// so a fisheye camera must name its model).
-pub(crate) fn model_for(n: usize) -> PyResult<CameraModel> {
-    CameraModel::ALL
-        .into_iter()
-        .find(|m| !m.is_fisheye() && m.num_distortion_params() == n)
-        .ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "dist: {n} coefficients match no pinhole model (4, 5, 8 or 12); give model="
-            ))
-        })
+/// A camera from a camera matrix `k`, coefficients `dist` (OpenCV's order; `None` or empty: no
+/// distortion, as cv2) and a model name (`None`: `fallback` if given and the count fits it, else
+/// inferred from the number of coefficients, [`options::model_for_dist`]). `k_what`, `d_what` and
+/// `model_what` are the arguments' names for messages.
+pub(crate) fn camera(
+    k: &Bound<'_, PyAny>,
+    dist: Option<&Bound<'_, PyAny>>,
+    model: Option<&str>,
+    fallback: Option<CameraModel>,
+    k_what: &str,
+    d_what: &str,
+    model_what: &str,
+) -> PyResult<AnyCamera> {
+    let coefficients = options::coefficients(dist, d_what)?.unwrap_or_default();
+    // The first camera of a pair follows the count of its coefficients; with none, brown-conrady4.
+    let model = options::model_for_dist(
+        model,
+        model_what,
+        Some(&coefficients),
+        d_what,
+        fallback.unwrap_or_default(),
+    )?;
+    // cv2 accepts an empty (or None) distortion vector for "no distortion".
+    let coefficients = if coefficients.is_empty() {
+        vec![0.0; model.num_distortion_params()]
+    } else {
+        coefficients
+    };
+    let intrinsics = convert::intrinsics_from_k(k, k_what)?;
+    AnyCamera::new(model, intrinsics, coefficients)
+        .map_err(|e| PyValueError::new_err(format!("{d_what}: {e}")))
 }
 
 /// Undistorts pixels, like ``cv2.undistortPoints``: the ideal normalized image coordinates
-/// ``(x / z, y / z)`` of the rays through the pixels; with ``R`` (3x3 rotation, e.g. from
-/// rectification) the rays are rotated first, and with ``P`` (3x3 or 3x4; its left 3x3 part is
-/// used) they are projected again to pixels.
+/// ``(x / z, y / z)`` of the rays through the pixels; with ``R`` (a 3x3 rotation matrix or a
+/// rotation vector, e.g. from rectification) the rays are rotated first, and with ``P`` (3x3 or
+/// 3x4; its left 3x3 part is used) they are projected again to pixels.
 ///
 /// ``points``: (N, 2), (N, 1, 2) or (1, N, 2), float32 or float64; the result has the same shape,
-/// float64. ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order). ``model``: the
-/// lens model; ``None`` infers it from the number of coefficients (4 brown-conrady4, 5
-/// brown-conrady5, 8 rational8, 12 thin-prism12); a fisheye camera needs
-/// ``model="kannala-brandt4"``. Pixels where the model cannot be inverted (far outside the
-/// calibrated area, or behind a fisheye camera) give NaN.
+/// float64. ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order; ``dist=None`` or
+/// empty: no distortion, as in cv2). ``model``: the lens model; ``None`` infers it from the
+/// number of coefficients (4 brown-conrady4, 5 brown-conrady5, 8 rational8, 12 thin-prism12); a
+/// fisheye camera needs ``model="kannala-brandt4"``. Pixels where the model cannot be inverted
+/// (far outside the calibrated area, or behind a fisheye camera) give NaN. An ``R`` that is not
+/// a rotation, a ``K`` with non-positive focal lengths or a coefficient count that does not fit
+/// ``model`` raise ``ValueError`` naming the argument.
 #[pyfunction]
-#[pyo3(signature = (points, K, dist, *, model=None, R=None, P=None))]
+#[pyo3(signature = (points, K, dist=None, *, model=None, R=None, P=None))]
 #[allow(non_snake_case)]
 fn undistort_points<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     K: &Bound<'py, PyAny>,
-    dist: &Bound<'py, PyAny>,
-    model: Option<&str>,
+    dist: Option<&Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = crate::args::model)] model: Option<String>,
     R: Option<&Bound<'py, PyAny>>,
     P: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let coefficients = convert::vector(dist, "dist")?;
-    let model = match model {
-        Some(name) => options::model(Some(name), "model")?,
-        None => model_for(coefficients.len())?,
-    };
-    let intrinsics = convert::intrinsics_from_k(K, "K")?;
-    let camera = AnyCamera::new(model, intrinsics, coefficients)
-        .map_err(|e| PyValueError::new_err(format!("dist: {e}")))?;
+    let camera = camera(K, dist, model.as_deref(), None, "K", "dist", "model")?;
+    let model = camera.model;
     let mut map = Matrix3::identity();
     if let Some(r) = R.filter(|r| !r.is_none()) {
-        map = convert::matrix3(r, "R")?;
+        map = convert::rotation(r, "R")?;
     }
     if let Some(p) = P.filter(|p| !p.is_none()) {
         let array = convert::as_f64(p, "P")?;

@@ -55,6 +55,24 @@ pub fn as_array<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Bound<'py,
     Ok(converted.cast::<PyUntypedArray>()?.clone())
 }
 
+/// `repr(obj)` for a message: on one line, cut to 60 characters (an array or a long text is
+/// not echoed whole). Arrays are described by their shape.
+pub fn short_repr(obj: &Bound<'_, PyAny>) -> String {
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        return format!("an array of shape {}", shape_text(a.shape()));
+    }
+    let text = obj
+        .repr()
+        .map(|r| r.to_string())
+        .unwrap_or_else(|_| "?".into());
+    let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    const MAX: usize = 60;
+    match text.char_indices().nth(MAX) {
+        None => text,
+        Some((cut, _)) => format!("{}... ({} characters)", &text[..cut], text.chars().count()),
+    }
+}
+
 /// The Python type name of `obj`, for messages.
 pub fn type_name(obj: &Bound<'_, PyAny>) -> String {
     obj.get_type()
@@ -167,9 +185,7 @@ pub fn image_size(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<ImageSize> {
     let bad = || {
         PyValueError::new_err(format!(
             "{what}: expected (width, height) as two positive integers, got {}",
-            obj.repr()
-                .map(|r| r.to_string())
-                .unwrap_or_else(|_| "?".into())
+            short_repr(obj)
         ))
     };
     if obj.is_instance_of::<PyString>() {
@@ -222,6 +238,52 @@ pub fn vector(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
     Ok(readonly.as_array().iter().copied().collect())
 }
 
+/// A number as Python prints it (`nan`, `inf`, `-inf`, `500.0`), for messages.
+pub fn py_float(x: f64) -> String {
+    if x.is_nan() {
+        "nan".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf".into() } else { "-inf".into() }
+    } else if x == x.trunc() && x.abs() < 1e16 {
+        format!("{x:.1}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Refuses non-finite values, naming the first.
+pub fn check_finite(values: &[f64], what: &str) -> PyResult<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(PyValueError::new_err(format!(
+            "{what}: the values must be finite, got {} at index {i}",
+            py_float(values[i])
+        ))),
+    }
+}
+
+/// A rotation: a 3x3 rotation matrix (orthonormal, det +1, to 1e-9) or a Rodrigues vector of 3
+/// values (shape (3,), (3, 1) or (1, 3)), as cv2 accepts either.
+pub fn rotation(r: &Bound<'_, PyAny>, what: &str) -> PyResult<Matrix3<f64>> {
+    let array = as_f64(r, what)?;
+    if array.shape() == [3, 3] {
+        let m = matrix3(r, what)?;
+        let orthonormal = m.iter().all(|v| v.is_finite())
+            && (m.transpose() * m - Matrix3::identity()).norm() < 1e-9
+            && m.determinant() > 0.0;
+        if !orthonormal {
+            return Err(PyValueError::new_err(format!(
+                "{what}: not a rotation matrix (R^T R != I or det R < 0)"
+            )));
+        }
+        Ok(m)
+    } else {
+        let w = vector_n(r, 3, &format!("{what} (a 3x3 matrix or a rotation vector)"))?;
+        check_finite(&w, what)?;
+        Ok(AxisAngle::matrix(&Vector3::new(w[0], w[1], w[2])))
+    }
+}
+
 /// A vector of exactly `n` values.
 pub fn vector_n(obj: &Bound<'_, PyAny>, n: usize, what: &str) -> PyResult<Vec<f64>> {
     let v = vector(obj, what)?;
@@ -247,31 +309,35 @@ pub fn intrinsics_from_k(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Intrins
             "{what}: expected a camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew)"
         )));
     }
-    Ok(Intrinsics::new(k[(0, 0)], k[(1, 1)], k[(0, 2)], k[(1, 2)]))
+    let (fx, fy, cx, cy) = (k[(0, 0)], k[(1, 1)], k[(0, 2)], k[(1, 2)]);
+    if !(fx.is_finite() && fy.is_finite() && fx > 0.0 && fy > 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "{what}: the focal lengths must be finite and positive, got fx = {}, fy = {}",
+            py_float(fx),
+            py_float(fy)
+        )));
+    }
+    if !(cx.is_finite() && cy.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "{what}: the principal point must be finite, got cx = {}, cy = {}",
+            py_float(cx),
+            py_float(cy)
+        )));
+    }
+    Ok(Intrinsics::new(fx, fy, cx, cy))
 }
 
-/// A rigid transform from a rotation (3x3 matrix or Rodrigues vector) and a translation.
-pub fn pose(r: &Bound<'_, PyAny>, t: &Bound<'_, PyAny>, what: &str) -> PyResult<Pose> {
-    let array = as_f64(r, &format!("{what} R"))?;
-    let rotation = if array.shape() == [3, 3] {
-        let m = matrix3(r, &format!("{what} R"))?;
-        let orthonormal =
-            (m.transpose() * m - Matrix3::identity()).norm() < 1e-9 && m.determinant() > 0.0;
-        if !orthonormal {
-            return Err(PyValueError::new_err(format!(
-                "{what} R: not a rotation matrix (R^T R != I or det R < 0)"
-            )));
-        }
-        m
-    } else {
-        let w = vector_n(
-            r,
-            3,
-            &format!("{what} R (a 3x3 matrix or a rotation vector)"),
-        )?;
-        AxisAngle::matrix(&Vector3::new(w[0], w[1], w[2]))
-    };
-    let t = vector_n(t, 3, &format!("{what} T"))?;
+/// A rigid transform from a rotation (3x3 matrix or Rodrigues vector; the argument `r_what`) and
+/// a translation (`t_what`).
+pub fn pose(
+    r: &Bound<'_, PyAny>,
+    t: &Bound<'_, PyAny>,
+    r_what: &str,
+    t_what: &str,
+) -> PyResult<Pose> {
+    let rotation = rotation(r, r_what)?;
+    let t = vector_n(t, 3, t_what)?;
+    check_finite(&t, t_what)?;
     Ok(Pose::new(rotation, Vector3::new(t[0], t[1], t[2])))
 }
 

@@ -92,7 +92,7 @@ fn detect_chessboard<'py>(
     image: &Bound<'py, PyAny>,
     pattern_size: &Bound<'py, PyAny>,
     dtype: Option<&Bound<'py, PyAny>>,
-    raise_on_failure: bool,
+    #[pyo3(from_py_with = crate::args::raise_on_failure)] raise_on_failure: bool,
 ) -> PyResult<Option<Bound<'py, PyAny>>> {
     let board = pattern(pattern_size, 1.0)?;
     let float64 = match dtype.filter(|d| !d.is_none()) {
@@ -149,7 +149,7 @@ fn detect_chessboard<'py>(
 #[pyfunction]
 fn imread_gray<'py>(
     py: Python<'py>,
-    path: std::path::PathBuf,
+    #[pyo3(from_py_with = crate::args::path)] path: std::path::PathBuf,
 ) -> PyResult<Bound<'py, PyArray2<u8>>> {
     let image = py
         .detach(|| board_detect::load_gray(&path, &DetectOptions::default()))
@@ -170,7 +170,7 @@ fn imread_gray<'py>(
 fn board_points<'py>(
     py: Python<'py>,
     pattern_size: &Bound<'py, PyAny>,
-    square: f64,
+    #[pyo3(from_py_with = crate::args::square)] square: f64,
     dtype: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let board = pattern(pattern_size, square)?;

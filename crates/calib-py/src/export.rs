@@ -3,15 +3,13 @@
 //! camera_info and Kalibr camchain YAML, and `calib` result JSON).
 
 use crate::calibration_error;
-use crate::camera::model_for;
+use crate::camera::camera;
 use crate::convert::{self, column_out, mat3_out, matrix_out, row_out};
-use crate::options;
 use crate::rig::RigCalibrationResult;
 use crate::single::CameraCalibration as CameraResult;
 use crate::stereo::StereoCalibrationResult;
 use calib_core::ImageSize;
 use calib_export::{Calibrated, CameraCalibration, CameraRig, ExportOptions, Format, StereoRig};
-use camera_model::AnyCamera;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -29,42 +27,6 @@ fn alpha_option(alpha: Option<f64>) -> PyResult<Option<f64>> {
     }
 }
 
-/// A camera from `K`, coefficients and a model name (`None`: inferred from the coefficient
-/// count, as in `undistort_points`).
-fn camera(
-    k: &Bound<'_, PyAny>,
-    dist: &Bound<'_, PyAny>,
-    model: Option<&str>,
-    k_what: &str,
-    d_what: &str,
-    model_what: &str,
-) -> PyResult<AnyCamera> {
-    let coefficients = if dist.is_none() {
-        Vec::new()
-    } else {
-        convert::vector(dist, d_what)?
-    };
-    let model = match model {
-        Some(name) => options::model(Some(name), model_what)?,
-        None if coefficients.is_empty() => camera_model::CameraModel::BrownConrady4,
-        None => model_for(coefficients.len()).map_err(|_| {
-            PyValueError::new_err(format!(
-                "{d_what}: {} coefficients match no pinhole model (4, 5, 8 or 12); give {model_what}=",
-                coefficients.len()
-            ))
-        })?,
-    };
-    // cv2 accepts an empty (or None) distortion vector for "no distortion".
-    let coefficients = if coefficients.is_empty() {
-        vec![0.0; model.num_distortion_params()]
-    } else {
-        coefficients
-    };
-    let intrinsics = convert::intrinsics_from_k(k, k_what)?;
-    AnyCamera::new(model, intrinsics, coefficients)
-        .map_err(|e| PyValueError::new_err(format!("{d_what}: {e}")))
-}
-
 /// A stereo rig from cv2-style arguments.
 #[allow(clippy::too_many_arguments)]
 fn rig(
@@ -79,10 +41,43 @@ fn rig(
     model: Option<&str>,
     model2: Option<&str>,
     names: (String, String),
+    dict: bool,
 ) -> PyResult<StereoRig> {
-    let left = camera(k1, d1, model, "K1", "D1", "model")?;
-    let right = camera(k2, d2, model2.or(model), "K2", "D2", "model2")?;
-    let pose = convert::pose(r, t, "rig")?;
+    // The arguments' names in messages: `K1` for stereo_rectify, `calibration['K1']` for a dict.
+    let arg = |key: &str| {
+        if dict {
+            format!("calibration['{key}']")
+        } else {
+            key.to_string()
+        }
+    };
+    let (model_what, model2_what) = if dict {
+        (
+            "calibration['models'][0]".to_string(),
+            "calibration['models'][1]".to_string(),
+        )
+    } else {
+        ("model".to_string(), "model2".to_string())
+    };
+    let left = camera(
+        k1,
+        Some(d1),
+        model,
+        None,
+        &arg("K1"),
+        &arg("D1"),
+        &model_what,
+    )?;
+    let right = camera(
+        k2,
+        Some(d2),
+        model2,
+        Some(left.model),
+        &arg("K2"),
+        &arg("D2"),
+        &model2_what,
+    )?;
+    let pose = convert::pose(r, t, &arg("R"), &arg("T"))?;
     Ok(StereoRig {
         left: CameraCalibration {
             name: names.0,
@@ -134,9 +129,9 @@ fn stereo_rectify<'py>(
     image_size: &Bound<'py, PyAny>,
     R: &Bound<'py, PyAny>,
     T: &Bound<'py, PyAny>,
-    alpha: Option<f64>,
-    model: Option<&str>,
-    model2: Option<&str>,
+    #[pyo3(from_py_with = crate::args::alpha)] alpha: Option<f64>,
+    #[pyo3(from_py_with = crate::args::model)] model: Option<String>,
+    #[pyo3(from_py_with = crate::args::model2)] model2: Option<String>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let alpha = alpha_option(alpha)?;
     let size = convert::image_size(image_size, "image_size")?;
@@ -149,9 +144,10 @@ fn stereo_rectify<'py>(
         size,
         R,
         T,
-        model,
-        model2,
+        model.as_deref(),
+        model2.as_deref(),
         ("left".into(), "right".into()),
+        false,
     )?;
     let rect = py
         .detach(|| calib_export::stereo_rectify(&rig, alpha))
@@ -206,7 +202,7 @@ fn pair_item(d: &Bound<'_, PyDict>, key: &str) -> PyResult<(Option<String>, Opti
             let (a, b): (String, String) = v.extract().map_err(|_| {
                 PyTypeError::new_err(format!(
                     "calibration['{key}']: expected two strings, got {}",
-                    v.repr().map(|r| r.to_string()).unwrap_or_default()
+                    convert::short_repr(&v)
                 ))
             })?;
             Ok((Some(a), Some(b)))
@@ -270,8 +266,9 @@ fn rig_from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
     for (i, name) in names.into_iter().enumerate() {
         let camera = camera(
             &ks[i],
-            &dists[i],
+            Some(&dists[i]),
             models[i].as_deref(),
+            None,
             &format!("calibration['Ks'][{i}]"),
             &format!("calibration['dists'][{i}]"),
             &format!("calibration['models'][{i}]"),
@@ -286,7 +283,8 @@ fn rig_from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
         transforms.push(convert::pose(
             &rs[i],
             &ts[i],
-            &format!("calibration camera {i}"),
+            &format!("calibration['Rs'][{i}]"),
+            &format!("calibration['Ts'][{i}]"),
         )?);
     }
     let reference = match d.get_item("reference")? {
@@ -330,14 +328,16 @@ fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Calibrated> {
                 name1.unwrap_or_else(|| "left".into()),
                 name2.unwrap_or_else(|| "right".into()),
             ),
+            true,
         )?;
         Ok(Calibrated::Stereo(rig))
     } else {
         let model = str_item(d, "model")?;
         let camera = camera(
             &item(d, "K")?,
-            &item(d, "dist")?,
+            Some(&item(d, "dist")?),
             model.as_deref(),
+            None,
             "calibration['K']",
             "calibration['dist']",
             "calibration['model']",
@@ -392,16 +392,19 @@ fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
 /// :class:`CalibrationError` when the format cannot hold the calibration (e.g. a lens model
 /// Kalibr has no equivalent of) or a file cannot be written.
 #[pyfunction]
-#[pyo3(signature = (path, calibration, format="opencv", *, alpha=0.0, translation_scale=1.0))]
+#[pyo3(
+    signature = (path, calibration, format="opencv".to_string(), *, alpha=0.0, translation_scale=1.0),
+    text_signature = "(path, calibration, format='opencv', *, alpha=0.0, translation_scale=1.0)"
+)]
 fn write_calibration(
     py: Python<'_>,
-    path: PathBuf,
+    #[pyo3(from_py_with = crate::args::path)] path: PathBuf,
     calibration: &Bound<'_, PyAny>,
-    format: &str,
-    alpha: Option<f64>,
-    translation_scale: f64,
+    #[pyo3(from_py_with = crate::args::format)] format: String,
+    #[pyo3(from_py_with = crate::args::alpha)] alpha: Option<f64>,
+    #[pyo3(from_py_with = crate::args::translation_scale)] translation_scale: f64,
 ) -> PyResult<Vec<String>> {
-    let format = self::format(format)?;
+    let format = self::format(&format)?;
     let calibrated = calibrated(calibration)?;
     let options = ExportOptions::new(alpha_option(alpha)?, translation_scale)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;

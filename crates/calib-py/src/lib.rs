@@ -10,6 +10,7 @@
 
 #[macro_use]
 mod result_object;
+mod args;
 mod camera;
 mod convert;
 mod detect;

@@ -30,6 +30,81 @@ pub fn model(name: Option<&str>, what: &str) -> PyResult<CameraModel> {
     }
 }
 
+/// The pinhole model a coefficient vector of `n` values means in cv2's convention (4
+/// brown-conrady4, 5 brown-conrady5, 8 rational8, 12 thin-prism12), if any.
+pub fn model_of_count(n: usize) -> Option<CameraModel> {
+    CameraModel::ALL
+        .into_iter()
+        .find(|m| !m.is_fisheye() && m.num_distortion_params() == n)
+}
+
+/// The lens model of a camera whose coefficients may be given (`coefficients`, from the argument
+/// `dist_what`; `None` or empty when not given). A named `model` (argument `model_what`) must have
+/// as many coefficients as given. Without a name, `fallback` when the count fits it (or nothing
+/// was given), else the model the count means in cv2's convention ([`model_of_count`]), so that
+/// OpenCV's five coefficients (which cv2 returns even with `CALIB_FIX_K3`) need no `model=`.
+pub fn model_for_dist(
+    model: Option<&str>,
+    model_what: &str,
+    coefficients: Option<&[f64]>,
+    dist_what: &str,
+    fallback: CameraModel,
+) -> PyResult<CameraModel> {
+    let n = coefficients.map(|c| c.len()).filter(|&n| n > 0);
+    let Some(name) = model else {
+        return match n {
+            None => Ok(fallback),
+            Some(n) if n == fallback.num_distortion_params() => Ok(fallback),
+            Some(n) => model_of_count(n).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "{dist_what}: {n} coefficients match no pinhole model (4 brown-conrady4, 5 brown-conrady5, 8 rational8 or 12 thin-prism12); give {model_what}= (a fisheye: {model_what}='kannala-brandt4')"
+                ))
+            }),
+        };
+    };
+    let model = self::model(Some(name), model_what)?;
+    if let Some(n) = n {
+        check_count(model, n, model_what, dist_what)?;
+    }
+    Ok(model)
+}
+
+/// The coefficients of an optional argument (`None` when absent or `None`), finite.
+pub fn coefficients(dist: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Option<Vec<f64>>> {
+    let Some(d) = dist.filter(|d| !d.is_none()) else {
+        return Ok(None);
+    };
+    let v = convert::vector(d, what)?;
+    convert::check_finite(&v, what)?;
+    Ok(Some(v))
+}
+
+/// Refuses `n` coefficients for `model` unless it has that many, naming the model the count
+/// would mean.
+pub fn check_count(
+    model: CameraModel,
+    n: usize,
+    model_what: &str,
+    dist_what: &str,
+) -> PyResult<()> {
+    let names = model.distortion_names();
+    if n == names.len() {
+        return Ok(());
+    }
+    let hint = match model_of_count(n) {
+        Some(other) => format!(
+            "; {n} coefficients are {other}'s ({}): give {model_what}='{other}', or leave {model_what} out to have it inferred from the count",
+            other.distortion_names().join(", ")
+        ),
+        None => format!("; {n} coefficients match no lens model"),
+    };
+    Err(PyValueError::new_err(format!(
+        "{dist_what}: {model_what} {model} has {} coefficients ({}), got {n}{hint}",
+        names.len(),
+        names.join(", "),
+    )))
+}
+
 /// The names in `fix`: a string ("k3", or "k2,k3") or an iterable of strings.
 pub fn fix_names(fix: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<String>> {
     let Some(fix) = fix else {
@@ -199,10 +274,14 @@ pub fn camera_options(
     options.model = model;
     // The arguments' own names: `fix`/`K`/`dist` for one camera, `fix`/`K1`/`D1` and
     // `fix2`/`K2`/`D2` for a stereo pair.
-    let (fix_arg, dist_arg) = match what {
-        "" => ("fix".to_string(), "dist".to_string()),
-        "1" => ("fix".to_string(), "D1".to_string()),
-        other => (format!("fix{other}"), format!("D{other}")),
+    let (fix_arg, dist_arg, model_arg) = match what {
+        "" => ("fix".to_string(), "dist".to_string(), "model".to_string()),
+        "1" => ("fix".to_string(), "D1".to_string(), "model".to_string()),
+        other => (
+            format!("fix{other}"),
+            format!("D{other}"),
+            format!("model{other}"),
+        ),
     };
     apply_fix(&mut options, fix, &fix_arg)?;
     common.apply(&mut options)?;
@@ -211,16 +290,9 @@ pub fn camera_options(
         options.intrinsic_guess = Some(convert::intrinsics_from_k(k, &format!("K{what}"))?);
     }
     if let Some(d) = dist.filter(|d| !d.is_none()) {
-        let names = model.distortion_names();
         let v = convert::vector(d, &dist_arg)?;
-        if v.len() != names.len() {
-            return Err(PyValueError::new_err(format!(
-                "{dist_arg}: model {model} has {} coefficients ({}), got {}",
-                names.len(),
-                names.join(", "),
-                v.len()
-            )));
-        }
+        convert::check_finite(&v, &dist_arg)?;
+        check_count(model, v.len(), &model_arg, &dist_arg)?;
         options.distortion_guess = Some(v);
     }
     Ok(options)

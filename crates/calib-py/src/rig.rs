@@ -110,19 +110,19 @@ fn calibrate_rig_py(
     object_points: &Bound<'_, PyAny>,
     image_points: &Bound<'_, PyAny>,
     models: Option<&Bound<'_, PyAny>>,
-    names: Option<Vec<String>>,
+    #[pyo3(from_py_with = crate::args::names)] names: Option<Vec<String>>,
     reference: Option<&Bound<'_, PyAny>>,
     known: Option<&Bound<'_, PyDict>>,
     fix: Option<&Bound<'_, PyAny>>,
-    min_views: i64,
-    reject_outliers: bool,
-    outlier_threshold: f64,
-    loss: Option<String>,
-    loss_scale: f64,
-    rotation: Option<String>,
-    skip_bad_views: bool,
-    max_iterations: i64,
-    threads: i64,
+    #[pyo3(from_py_with = crate::args::min_views)] min_views: i64,
+    #[pyo3(from_py_with = crate::args::reject_outliers)] reject_outliers: bool,
+    #[pyo3(from_py_with = crate::args::outlier_threshold)] outlier_threshold: f64,
+    #[pyo3(from_py_with = crate::args::loss)] loss: Option<String>,
+    #[pyo3(from_py_with = crate::args::loss_scale)] loss_scale: f64,
+    #[pyo3(from_py_with = crate::args::rotation)] rotation: Option<String>,
+    #[pyo3(from_py_with = crate::args::skip_bad_views)] skip_bad_views: bool,
+    #[pyo3(from_py_with = crate::args::max_iterations)] max_iterations: i64,
+    #[pyo3(from_py_with = crate::args::threads)] threads: i64,
 ) -> PyResult<RigCalibrationResult> {
     let common = Common {
         reject_outliers,
@@ -162,7 +162,7 @@ fn calibrate_rig_py(
             names.iter().position(|n| n == name).unwrap_or(0)
         )));
     }
-    let per_camera_models: Vec<Option<CameraModel>> = match models.filter(|m| !m.is_none()) {
+    let mut per_camera_models: Vec<Option<CameraModel>> = match models.filter(|m| !m.is_none()) {
         None => vec![None; n],
         Some(m) if m.is_instance_of::<PyString>() => {
             vec![Some(options::model(Some(&m.extract::<String>()?), "models")?); n]
@@ -187,6 +187,38 @@ fn calibrate_rig_py(
                 .collect::<PyResult<_>>()?
         }
     };
+    // The model of the cameras without one (taken before a known camera's coefficients name its
+    // model, so that they name no other camera's).
+    let first = per_camera_models[0].unwrap_or_default();
+    // Known cameras: a camera without a model takes the one its coefficients' count means
+    // (cv2's 5 are brown-conrady5), as in `calibrate_camera`.
+    let mut given: Option<Vec<Option<AnyCamera>>> = None;
+    if let Some(known) = known {
+        let given = given.insert(vec![None; n]);
+        for (key, value) in known.iter() {
+            let c = camera_key(&key, &names, "known")?;
+            let what = format!("known[{}]", names[c]);
+            let (k, d): (Bound<'_, PyAny>, Bound<'_, PyAny>) = value
+                .extract()
+                .map_err(|_| PyTypeError::new_err(format!("{what}: expected a tuple (K, dist)")))?;
+            let model_what = match models.filter(|m| !m.is_none()) {
+                Some(m) if !m.is_instance_of::<PyString>() => format!("models[{c}]"),
+                _ => "models".to_string(),
+            };
+            let model = per_camera_models[c].map(|m| m.name());
+            let camera = crate::camera::camera(
+                &k,
+                Some(&d),
+                model,
+                None,
+                &format!("{what} K"),
+                &format!("{what} dist"),
+                &model_what,
+            )?;
+            per_camera_models[c] = Some(camera.model);
+            given[c] = Some(camera);
+        }
+    }
     let cameras: Vec<RigCameraInput> = (0..n)
         .map(|c| RigCameraInput {
             name: names[c].clone(),
@@ -256,7 +288,6 @@ fn calibrate_rig_py(
 
     // Flags ("principal_point", ...) apply to every camera, coefficient names to every camera
     // whose model has them, as `calib rig --fix`.
-    let first = per_camera_models[0].unwrap_or_default();
     let mut camera = options::camera_options(first, &[], None, None, &common, "")?;
     let fix = options::fix_names(fix, "fix")?;
     let models: Vec<CameraModel> = per_camera_models
@@ -278,6 +309,9 @@ fn calibrate_rig_py(
         )));
     }
     let mut opts = RigOptions::default();
+    if let Some(given) = given {
+        opts.given = given;
+    }
     opts.hold_fixed = coefficients;
     opts.models = per_camera_models.clone();
     camera.skip_bad_views = skip_bad_views;
@@ -289,27 +323,6 @@ fn calibrate_rig_py(
     opts.camera = camera;
     if let Some(r) = reference.filter(|r| !r.is_none()) {
         opts.reference = camera_key(r, &names, "reference")?;
-    }
-    if let Some(known) = known {
-        opts.given = vec![None; n];
-        for (key, value) in known.iter() {
-            let c = camera_key(&key, &names, "known")?;
-            let what = format!("known[{}]", names[c]);
-            let (k, d): (Bound<'_, PyAny>, Bound<'_, PyAny>) = value
-                .extract()
-                .map_err(|_| PyTypeError::new_err(format!("{what}: expected a tuple (K, dist)")))?;
-            let model = per_camera_models[c].unwrap_or_default();
-            let intrinsics = convert::intrinsics_from_k(&k, &format!("{what} K"))?;
-            let dist = convert::vector_n(
-                &d,
-                model.num_distortion_params(),
-                &format!("{what} dist ({model})"),
-            )?;
-            opts.given[c] = Some(
-                AnyCamera::new(model, intrinsics, dist)
-                    .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))?,
-            );
-        }
     }
     let observations = RigObservations { cameras, frames };
     let result = py

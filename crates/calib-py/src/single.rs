@@ -4,6 +4,7 @@ use crate::calibration_error;
 use crate::convert::{self, flat_out, mat3_out, row_out};
 use crate::options::{self, Common};
 use calib_single::{Calibration, Observations, View, calibrate};
+use camera_model::CameraModel;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -90,20 +91,20 @@ fn calibrate_camera(
     object_points: &Bound<'_, PyAny>,
     image_points: &Bound<'_, PyAny>,
     image_size: &Bound<'_, PyAny>,
-    model: Option<&str>,
+    #[pyo3(from_py_with = crate::args::model)] model: Option<String>,
     fix: Option<&Bound<'_, PyAny>>,
     K: Option<&Bound<'_, PyAny>>,
     dist: Option<&Bound<'_, PyAny>>,
-    reject_outliers: bool,
-    outlier_threshold: f64,
-    loss: Option<String>,
-    loss_scale: f64,
-    rotation: Option<String>,
-    skip_bad_views: bool,
-    drop_duplicate_views: bool,
-    compute_std: bool,
-    max_iterations: i64,
-    threads: i64,
+    #[pyo3(from_py_with = crate::args::reject_outliers)] reject_outliers: bool,
+    #[pyo3(from_py_with = crate::args::outlier_threshold)] outlier_threshold: f64,
+    #[pyo3(from_py_with = crate::args::loss)] loss: Option<String>,
+    #[pyo3(from_py_with = crate::args::loss_scale)] loss_scale: f64,
+    #[pyo3(from_py_with = crate::args::rotation)] rotation: Option<String>,
+    #[pyo3(from_py_with = crate::args::skip_bad_views)] skip_bad_views: bool,
+    #[pyo3(from_py_with = crate::args::drop_duplicate_views)] drop_duplicate_views: bool,
+    #[pyo3(from_py_with = crate::args::compute_std)] compute_std: bool,
+    #[pyo3(from_py_with = crate::args::max_iterations)] max_iterations: i64,
+    #[pyo3(from_py_with = crate::args::threads)] threads: i64,
     names: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<CameraCalibration> {
     let common = Common {
@@ -115,7 +116,13 @@ fn calibrate_camera(
         max_iterations,
         threads,
     };
-    let model = options::model(model, "model")?;
+    let model = options::model_for_dist(
+        model.as_deref(),
+        "model",
+        options::coefficients(dist, "dist")?.as_deref(),
+        "dist",
+        CameraModel::default(),
+    )?;
     let fix = options::fix_names(fix, "fix")?;
     options::check_tangential(&fix, &[model])?;
     let mut opts = options::camera_options(model, &fix, K, dist, &common, "")?;

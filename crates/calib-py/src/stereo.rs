@@ -10,10 +10,13 @@ use calib_stereo::{
     RigInit, StereoCalibration, StereoObservations, StereoOptions, StereoPair, calibrate_stereo,
 };
 use camera_model::{CameraModel, RotationKind};
-use numpy::{PyArray1, PyArray2};
+use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
+
+/// The positional arguments of `stereo_calibrate`, for the message about cv2's order.
+const STEREO_SIGNATURE: &str = "stereo_calibrate(object_points, image_points1, image_points2, image_size, K1=None, D1=None, K2=None, D2=None, *, ...)";
 
 /// Calibrates a stereo pair from simultaneous views of a planar board, like
 /// ``cv2.stereoCalibrate`` but estimating everything by default (both cameras, every pair's
@@ -36,13 +39,16 @@ use pyo3::types::{PyList, PyTuple};
 /// ``rms, K1, D1, K2, D2, R, T, E, F``. Raises :class:`CalibrationError` naming the pair and
 /// camera. The GIL is released while it runs.
 #[pyfunction]
+// The text signature spells rig_init's default out (pyo3 shows `...` for a String default).
 #[pyo3(signature = (
     object_points, image_points1, image_points2, image_size, K1=None, D1=None, K2=None, D2=None,
     *, model=None, model2=None, fix=None, fix2=None, image_size2=None, fix_intrinsics=false,
     fix_intrinsics1=false, fix_intrinsics2=false, same_focal_length=false, R=None, T=None,
-    rig_init="least-squares", reject_outliers=false, outlier_threshold=5.0, loss=None,
+    rig_init="least-squares".to_string(), reject_outliers=false, outlier_threshold=5.0, loss=None,
     loss_scale=1.0, rotation=None, skip_bad_pairs=false, max_iterations=500, threads=0, names=None
-))]
+),
+    text_signature = "(object_points, image_points1, image_points2, image_size, K1=None, D1=None, K2=None, D2=None, *, model=None, model2=None, fix=None, fix2=None, image_size2=None, fix_intrinsics=False, fix_intrinsics1=False, fix_intrinsics2=False, same_focal_length=False, R=None, T=None, rig_init='least-squares', reject_outliers=False, outlier_threshold=5.0, loss=None, loss_scale=1.0, rotation=None, skip_bad_pairs=False, max_iterations=500, threads=0, names=None)"
+)]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 fn stereo_calibrate(
     py: Python<'_>,
@@ -54,26 +60,26 @@ fn stereo_calibrate(
     D1: Option<&Bound<'_, PyAny>>,
     K2: Option<&Bound<'_, PyAny>>,
     D2: Option<&Bound<'_, PyAny>>,
-    model: Option<&str>,
-    model2: Option<&str>,
+    #[pyo3(from_py_with = crate::args::model)] model: Option<String>,
+    #[pyo3(from_py_with = crate::args::model2)] model2: Option<String>,
     fix: Option<&Bound<'_, PyAny>>,
     fix2: Option<&Bound<'_, PyAny>>,
     image_size2: Option<&Bound<'_, PyAny>>,
-    fix_intrinsics: bool,
-    fix_intrinsics1: bool,
-    fix_intrinsics2: bool,
-    same_focal_length: bool,
+    #[pyo3(from_py_with = crate::args::fix_intrinsics)] fix_intrinsics: bool,
+    #[pyo3(from_py_with = crate::args::fix_intrinsics1)] fix_intrinsics1: bool,
+    #[pyo3(from_py_with = crate::args::fix_intrinsics2)] fix_intrinsics2: bool,
+    #[pyo3(from_py_with = crate::args::same_focal_length)] same_focal_length: bool,
     R: Option<&Bound<'_, PyAny>>,
     T: Option<&Bound<'_, PyAny>>,
-    rig_init: &str,
-    reject_outliers: bool,
-    outlier_threshold: f64,
-    loss: Option<String>,
-    loss_scale: f64,
-    rotation: Option<String>,
-    skip_bad_pairs: bool,
-    max_iterations: i64,
-    threads: i64,
+    #[pyo3(from_py_with = crate::args::rig_init)] rig_init: String,
+    #[pyo3(from_py_with = crate::args::reject_outliers)] reject_outliers: bool,
+    #[pyo3(from_py_with = crate::args::outlier_threshold)] outlier_threshold: f64,
+    #[pyo3(from_py_with = crate::args::loss)] loss: Option<String>,
+    #[pyo3(from_py_with = crate::args::loss_scale)] loss_scale: f64,
+    #[pyo3(from_py_with = crate::args::rotation)] rotation: Option<String>,
+    #[pyo3(from_py_with = crate::args::skip_bad_pairs)] skip_bad_pairs: bool,
+    #[pyo3(from_py_with = crate::args::max_iterations)] max_iterations: i64,
+    #[pyo3(from_py_with = crate::args::threads)] threads: i64,
     names: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<StereoCalibrationResult> {
     let common = Common {
@@ -85,11 +91,36 @@ fn stereo_calibrate(
         max_iterations,
         threads,
     };
-    let model1 = options::model(model, "model")?;
-    let model2 = match model2 {
-        Some(m) => options::model(Some(m), "model2")?,
-        None => model1,
-    };
+    // First, so that cv2's positional order (a camera matrix where the image size belongs) is
+    // named before the camera matrices are read in the wrong places.
+    let size = convert::image_size(image_size, "image_size").map_err(|e| {
+        let matrix_like = convert::as_array(image_size, "image_size")
+            .is_ok_and(|a| a.ndim() == 2 || a.len() > 2);
+        if matrix_like {
+            PyValueError::new_err(format!(
+                "{}; was this called in cv2.stereoCalibrate's order (K1, D1, K2, D2 before the image size)? calib's order differs: {STEREO_SIGNATURE}",
+                e.value(image_size.py())
+            ))
+        } else {
+            e
+        }
+    })?;
+    // Without `model` / `model2` the number of coefficients in D1 / D2 decides (cv2's 5 are
+    // brown-conrady5); the second camera otherwise follows the first.
+    let model1 = options::model_for_dist(
+        model.as_deref(),
+        "model",
+        options::coefficients(D1, "D1")?.as_deref(),
+        "D1",
+        CameraModel::default(),
+    )?;
+    let model2 = options::model_for_dist(
+        model2.as_deref(),
+        "model2",
+        options::coefficients(D2, "D2")?.as_deref(),
+        "D2",
+        model1,
+    )?;
     let fix1 = options::fix_names(fix, "fix")?;
     let (fix1, fix2) = match fix2.filter(|f| !f.is_none()) {
         Some(f) => (fix1, options::fix_names(Some(f), "fix2")?),
@@ -143,7 +174,7 @@ fn stereo_calibrate(
     opts.fix_left_intrinsics = fix_intrinsics || fix_intrinsics1;
     opts.fix_right_intrinsics = fix_intrinsics || fix_intrinsics2;
     opts.same_focal_length = same_focal_length;
-    opts.rig_init = match rig_init {
+    opts.rig_init = match rig_init.as_str() {
         "least-squares" => RigInit::LeastSquares,
         "median" => RigInit::Median,
         other => {
@@ -153,7 +184,7 @@ fn stereo_calibrate(
         }
     };
     opts.rig_guess = match (R.filter(|r| !r.is_none()), T.filter(|t| !t.is_none())) {
-        (Some(r), Some(t)) => Some(convert::pose(r, t, "rig guess")?),
+        (Some(r), Some(t)) => Some(convert::pose(r, t, "R", "T")?),
         (None, None) => None,
         _ => {
             return Err(PyValueError::new_err(
@@ -194,7 +225,6 @@ fn stereo_calibrate(
             },
         });
     }
-    let size = convert::image_size(image_size, "image_size")?;
     let size2 = match image_size2.filter(|s| !s.is_none()) {
         Some(s) => Some(convert::image_size(s, "image_size2")?),
         None => None,

@@ -104,9 +104,9 @@ def test_stereo_rectify_errors(stereo):
         calib.stereo_rectify(K1, np.zeros(5), K2, D2, size, R, T, model="kannala-brandt4")
     with pytest.raises(ValueError, match="image_size: expected \\(width, height\\)"):
         calib.stereo_rectify(K1, D1, K2, D2, (640,), R, T)
-    with pytest.raises(ValueError, match="rig R: not a rotation matrix"):
+    with pytest.raises(ValueError, match="^R: not a rotation matrix"):
         calib.stereo_rectify(K1, D1, K2, D2, size, np.ones((3, 3)), T)
-    with pytest.raises(ValueError, match="rig T: expected 3 values, got 2"):
+    with pytest.raises(ValueError, match="^T: expected 3 values, got 2"):
         calib.stereo_rectify(K1, D1, K2, D2, size, R, T[:2])
     with pytest.raises(TypeError, match="K2: expected a float32 or float64 array"):
         calib.stereo_rectify(K1, D1, np.array([["a"] * 3] * 3), D2, size, R, T)

@@ -170,8 +170,8 @@ def test_bad_arguments_name_the_argument_and_index():
         calib.calibrate_camera(obj, img, size, fix=[3])
     with pytest.raises(ValueError, match="K: expected a 3x3 array"):
         calib.calibrate_camera(obj, img, size, K=np.eye(2))
-    with pytest.raises(ValueError, match=r"dist: model brown-conrady4 has 4 coefficients \(k1, k2, p1, p2\), got 5"):
-        calib.calibrate_camera(obj, img, size, dist=np.zeros(5))
+    with pytest.raises(ValueError, match=r"dist: model brown-conrady4 has 4 coefficients \(k1, k2, p1, p2\), got 5; 5 coefficients are brown-conrady5's"):
+        calib.calibrate_camera(obj, img, size, model="brown-conrady4", dist=np.zeros(5))
     with pytest.raises(ValueError, match="outlier_threshold"):
         calib.calibrate_camera(obj, img, size, reject_outliers=True, outlier_threshold=1.0)
     with pytest.raises(ValueError, match="loss: unknown loss"):

@@ -366,14 +366,15 @@ def board_points(
 def undistort_points(
     points: Points,
     K: npt.ArrayLike,
-    dist: npt.ArrayLike,
+    dist: Optional[npt.ArrayLike] = None,
     *,
     model: Optional[ModelName] = None,
     R: Optional[npt.ArrayLike] = None,
     P: Optional[npt.ArrayLike] = None,
 ) -> npt.NDArray[np.float64]:
     """Ideal normalized coordinates (or pixels of P) of distorted pixels, like
-    cv2.undistortPoints; NaN where the model cannot be inverted."""
+    cv2.undistortPoints (dist None: no distortion; R a rotation matrix or vector); NaN where the
+    model cannot be inverted."""
 
 def stereo_rectify(
     K1: npt.ArrayLike,
