@@ -21,7 +21,7 @@ mod single;
 mod stereo;
 
 use pyo3::create_exception;
-use pyo3::exceptions::PyException;
+use pyo3::exceptions::{PyException, PyUserWarning};
 use pyo3::prelude::*;
 
 create_exception!(
@@ -36,46 +36,49 @@ pub(crate) fn calibration_error(e: impl std::fmt::Display) -> PyErr {
     CalibrationError::new_err(e.to_string())
 }
 
-/// Something in a result that deserves attention: a stable `code` (e.g. `"poorly-determined"`)
-/// and a `message` saying what to do.
-#[pyclass(module = "calib", frozen, get_all)]
-#[derive(Clone)]
-pub struct CalibrationWarning {
-    /// The stable code, as in the JSON results (`docs/calib-single.md` lists them).
-    code: String,
-    /// What happened and what to do.
-    message: String,
+create_exception!(
+    calib,
+    CalibrationWarning,
+    PyUserWarning,
+    "Something in a calibration result that deserves attention, a subclass of UserWarning: the calibration functions emit one with warnings.warn for each entry of the result's ``warnings`` (filter them with ``warnings.simplefilter('ignore', calib.CalibrationWarning)``), and the entries are instances of it, with ``code`` (stable, e.g. \"poorly-determined\") and ``message`` (what happened and what to do); ``str()`` is ``[code] message``."
+);
+
+/// A warning of a result as a `CalibrationWarning` instance: `args[0]` is `"[code] message"`
+/// (what `warnings` prints), with the attributes `code` and `message`.
+fn warning_object<'py>(py: Python<'py>, w: &calib_core::Warning) -> PyResult<Bound<'py, PyAny>> {
+    let code = w.code.name();
+    let object = py
+        .get_type::<CalibrationWarning>()
+        .call1((format!("[{code}] {}", w.message),))?;
+    object.setattr("code", code)?;
+    object.setattr("message", &w.message)?;
+    Ok(object)
 }
 
-#[pymethods]
-impl CalibrationWarning {
-    fn __repr__(&self) -> String {
-        format!(
-            "CalibrationWarning(code={:?}, message={:?})",
-            self.code, self.message
-        )
-    }
-
-    fn __str__(&self) -> String {
-        format!("warning [{}]: {}", self.code, self.message)
-    }
-}
-
-impl From<&calib_core::Warning> for CalibrationWarning {
-    fn from(w: &calib_core::Warning) -> Self {
-        Self {
-            code: w.code.name().to_string(),
-            message: w.message.clone(),
-        }
-    }
-}
-
-/// Warnings as a Python list.
+/// Warnings as a Python list of `CalibrationWarning`.
 pub(crate) fn warnings_out<'py>(
     py: Python<'py>,
     warnings: &[calib_core::Warning],
 ) -> PyResult<Bound<'py, pyo3::types::PyList>> {
-    pyo3::types::PyList::new(py, warnings.iter().map(CalibrationWarning::from))
+    let items = warnings
+        .iter()
+        .map(|w| warning_object(py, w))
+        .collect::<PyResult<Vec<_>>>()?;
+    pyo3::types::PyList::new(py, items)
+}
+
+/// Emits each warning with `warnings.warn`, attributed to the Python line that called the
+/// calibration (stacklevel 1 is the innermost Python frame: this function runs in Rust, called
+/// from that line). A filter that turns warnings into errors makes the call raise.
+pub(crate) fn emit_warnings(py: Python<'_>, warnings: &[calib_core::Warning]) -> PyResult<()> {
+    if warnings.is_empty() {
+        return Ok(());
+    }
+    let warn = py.import("warnings")?.getattr("warn")?;
+    for w in warnings {
+        warn.call1((warning_object(py, w)?,))?;
+    }
+    Ok(())
 }
 
 /// Where a camera's lens model is one-to-one (`AnyCamera::validity`, docs/camera-model.md), as
@@ -109,7 +112,7 @@ pub(crate) fn validity_out<'py>(
 fn calib_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("CalibrationError", py.get_type::<CalibrationError>())?;
-    m.add_class::<CalibrationWarning>()?;
+    m.add("CalibrationWarning", py.get_type::<CalibrationWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     single::register(m)?;
     stereo::register(m)?;

@@ -328,6 +328,7 @@ fn calibrate_rig_py(
     let result = py
         .detach(|| calibrate_rig(&observations, &opts))
         .map_err(calibration_error)?;
+    crate::emit_warnings(py, &result.warnings)?;
     Ok(RigCalibrationResult { inner: result })
 }
 

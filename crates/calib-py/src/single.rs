@@ -143,6 +143,7 @@ fn calibrate_camera(
     let result = py
         .detach(|| calibrate(&observations, &opts))
         .map_err(calibration_error)?;
+    crate::emit_warnings(py, &result.warnings)?;
     Ok(CameraCalibration { inner: result })
 }
 

@@ -237,6 +237,7 @@ fn stereo_calibrate(
     let result = py
         .detach(|| calibrate_stereo(&observations, &opts))
         .map_err(calibration_error)?;
+    crate::emit_warnings(py, &result.warnings)?;
     Ok(StereoCalibrationResult { inner: result })
 }
 

@@ -255,3 +255,38 @@ def test_coefficient_names_in_any_case_and_counts_out_of_range():
                          ({"threads": -2}, "threads")]:
         with pytest.raises(ValueError, match=name):
             calib.calibrate_camera(obj, img, size, **kwargs)
+
+
+def test_warnings_reach_pythons_warnings_module():
+    import pickle
+    import warnings
+
+    assert issubclass(calib.CalibrationWarning, UserWarning)
+    obj, img, size = single_arrays("sourishg1/left.json")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = calib.calibrate_camera(obj[:6], img[:6], size, model="rational8")
+    codes = [w.code for w in result.warnings]
+    assert "poorly-determined" in codes
+    ours = [c for c in caught if issubclass(c.category, calib.CalibrationWarning)]
+    # One warnings.warn per entry of .warnings, attributed to this line (the user's call).
+    assert [c.message.code for c in ours] == codes
+    assert all(c.filename == __file__ for c in ours)
+    w = result.warnings[codes.index("poorly-determined")]
+    assert isinstance(w, calib.CalibrationWarning) and isinstance(w, Warning)
+    assert str(w) == f"[{w.code}] {w.message}" and w.message in str(ours[codes.index(w.code)].message)
+    copy = pickle.loads(pickle.dumps(w))
+    assert (copy.code, copy.message) == (w.code, w.message)
+    # The usual filters work: ignored, or raised.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("ignore", calib.CalibrationWarning)
+        calib.calibrate_camera(obj[:6], img[:6], size, model="rational8")
+    assert not caught
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", calib.CalibrationWarning)
+        with pytest.raises(calib.CalibrationWarning, match=r"^\[poorly-determined\]"):
+            calib.calibrate_camera(obj[:6], img[:6], size, model="rational8")
+    # A calibration without warnings emits none.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", calib.CalibrationWarning)
+        assert calib.calibrate_camera(obj, img, size).warnings == []

@@ -43,15 +43,15 @@ class CalibrationError(Exception):
     """A calibration (or detection, or file) failed; the message is the Rust crate's, naming the
     view (pair, frame, camera) and point at fault."""
 
-class CalibrationWarning:
-    """Something in a result that deserves attention."""
+class CalibrationWarning(UserWarning):
+    """Something in a result that deserves attention. The calibration functions emit one with
+    warnings.warn per entry of the result's ``warnings`` (which holds instances of this class);
+    ``str()`` is ``"[code] message"``."""
 
-    @property
-    def code(self) -> str:
-        """Stable code, e.g. "poorly-determined", "outliers-rejected", "duplicate-views"."""
-    @property
-    def message(self) -> str:
-        """What happened and what to do."""
+    code: str
+    """Stable code, e.g. "poorly-determined", "outliers-rejected", "duplicate-views"."""
+    message: str
+    """What happened and what to do."""
 
 class CameraCalibration:
     """Result of :func:`calibrate_camera`; unpacks as ``rms, K, dist, rvecs, tvecs``."""
