@@ -426,8 +426,9 @@ fn camera_items(d: &Bound<'_, PyDict>, c: &CameraCalibration, k: &str, dist: &st
 }
 
 /// Reads a calibration file of any kind ``calib`` reads: an OpenCV FileStorage YAML, a ROS
-/// camera_info YAML, a Kalibr camchain, or a result JSON of ``calib single`` / ``calib stereo`` / ``calib rig``
-/// (or ``to_json()`` of a result). The kind is recognized from the content.
+/// camera_info YAML, a Kalibr camchain, or a result JSON of ``calib single`` / ``calib stereo`` /
+/// ``calib rig``. The kind is recognized from the content. ``path`` may also be the text itself:
+/// a ``str`` that starts with ``{`` (such as ``result.to_json()``) or spans several lines.
 ///
 /// Returns a dict. One camera: ``kind="single"``, ``name``, ``model`` (e.g.
 /// ``"brown-conrady5"``), ``image_size`` (width, height), ``K`` (3, 3), ``dist`` (1, N) in
@@ -439,10 +440,40 @@ fn camera_items(d: &Bound<'_, PyDict>, c: &CameraCalibration, k: &str, dist: &st
 /// :func:`write_calibration` takes the dict back. Raises
 /// :class:`CalibrationError` naming the file and key at fault.
 #[pyfunction]
-fn read_calibration(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
-    let calibrated = py
-        .detach(|| calib_export::read_calibration(&path))
-        .map_err(calibration_error)?;
+fn read_calibration<'py>(
+    py: Python<'py>,
+    path: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let text = match path.cast::<pyo3::types::PyString>() {
+        Ok(s) => {
+            let s = s.to_cow()?;
+            (s.trim_start().starts_with('{') || s.contains('\n')).then(|| s.into_owned())
+        }
+        Err(_) => None,
+    };
+    let calibrated = match text {
+        Some(text) => py
+            .detach(|| calib_export::parse_calibration(&text, "<text>"))
+            .map_err(calibration_error)?,
+        None => {
+            let path = crate::args::path(path)?;
+            py.detach(|| calib_export::read_calibration(&path))
+                .map_err(|e| {
+                    // A long path is not echoed whole.
+                    let shown = path.to_string_lossy();
+                    let message = e.to_string();
+                    if shown.chars().count() > 200 {
+                        let short: String = shown.chars().take(60).collect();
+                        calibration_error(message.replace(
+                            shown.as_ref(),
+                            &format!("{short}... ({} characters)", shown.chars().count()),
+                        ))
+                    } else {
+                        calibration_error(message)
+                    }
+                })?
+        }
+    };
     let d = PyDict::new(py);
     let size = |s: ImageSize| (s.width, s.height);
     match &calibrated {

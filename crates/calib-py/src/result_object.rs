@@ -5,9 +5,31 @@
 /// protocol (`len`, indexing, unpacking) over the type's `tuple()` of `$len` items. `$ty` has
 /// `inner` with `warnings`, `elapsed`, `summary()` and `to_json()`.
 macro_rules! result_object_methods {
-    ($ty:ident, $len:literal, $json_doc:literal) => {
+    ($ty:ident, $inner:ty, $len:literal, $json_doc:literal) => {
         #[pyo3::pymethods]
         impl $ty {
+            /// The result of ``to_json()`` text (or a result file of the ``calib`` command) as a
+            /// result object again. Raises ``ValueError`` when the text is not such a result.
+            #[staticmethod]
+            fn from_json(text: &str) -> pyo3::PyResult<Self> {
+                let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+                    pyo3::exceptions::PyValueError::new_err(format!("text: not JSON: {e}"))
+                })?;
+                let inner = <$inner>::from_json(value)
+                    .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("text: {e}")))?;
+                Ok(Self { inner })
+            }
+
+            /// Pickling (and ``copy``) through the JSON form, which holds every number exactly.
+            fn __reduce__<'py>(
+                &self,
+                py: pyo3::Python<'py>,
+            ) -> pyo3::PyResult<(pyo3::Bound<'py, pyo3::PyAny>, (String,))> {
+                use pyo3::types::PyAnyMethods;
+                let from_json = py.get_type::<Self>().getattr("from_json")?;
+                Ok((from_json, (self.to_json()?,)))
+            }
+
             /// What deserves attention (list of :class:`CalibrationWarning`).
             #[getter]
             fn warnings<'py>(
@@ -48,12 +70,28 @@ macro_rules! result_object_methods {
                 $len
             }
 
+            /// Like a tuple: an index, or a slice (``r[:3]``) giving a tuple.
             fn __getitem__<'py>(
                 &self,
                 py: pyo3::Python<'py>,
-                index: isize,
+                index: &pyo3::Bound<'py, pyo3::PyAny>,
             ) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::PyAny>> {
-                use pyo3::types::PyTupleMethods;
+                use pyo3::types::{PyAnyMethods, PyTupleMethods};
+                if index.is_instance_of::<pyo3::types::PySlice>() {
+                    return self.tuple(py)?.as_any().get_item(index);
+                }
+                let index: isize = index
+                    .call_method0("__index__")
+                    .and_then(|i| i.extract())
+                    .map_err(|_| {
+                        pyo3::exceptions::PyTypeError::new_err(format!(
+                            concat!(
+                                stringify!($ty),
+                                " indices must be integers or slices, not {}"
+                            ),
+                            $crate::convert::type_name(index)
+                        ))
+                    })?;
                 let i = if index < 0 { index + $len } else { index };
                 if !(0..$len).contains(&i) {
                     return Err(pyo3::exceptions::PyIndexError::new_err(concat!(

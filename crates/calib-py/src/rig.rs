@@ -357,6 +357,7 @@ impl RigCalibrationResult {
 
 result_object_methods!(
     RigCalibrationResult,
+    RigCalibration,
     5,
     "The result as JSON text, the ``calib-rig-result`` format of docs/formats.md (what ``calib rig -o`` writes)."
 );

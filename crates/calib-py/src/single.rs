@@ -174,6 +174,7 @@ impl CameraCalibration {
 
 result_object_methods!(
     CameraCalibration,
+    Calibration,
     5,
     "The result as JSON text, the ``calib-single-result`` format of docs/formats.md (what ``calib single -o`` writes)."
 );

@@ -276,6 +276,7 @@ impl StereoCalibrationResult {
 
 result_object_methods!(
     StereoCalibrationResult,
+    StereoCalibration,
     9,
     "The result as JSON text, the ``calib-stereo-result`` format of docs/formats.md (what ``calib stereo -o`` writes)."
 );

@@ -121,8 +121,14 @@ class CameraCalibration:
         """Every parameter with +- 3 sigma, the RMS, the worst views, the warnings."""
     def to_json(self) -> str:
         """The calib-single-result JSON of docs/formats.md (what ``calib single -o`` writes)."""
+    @staticmethod
+    def from_json(text: str) -> CameraCalibration:
+        """The result again from its ``to_json()`` text (pickling and ``copy`` go through it)."""
     def __len__(self) -> int: ...
+    @overload
     def __getitem__(self, index: int) -> Any: ...
+    @overload
+    def __getitem__(self, index: slice) -> tuple[Any, ...]: ...
     def __iter__(self) -> Iterator[Any]: ...
 
 class StereoCalibration:
@@ -191,8 +197,14 @@ class StereoCalibration:
     def summary(self) -> str: ...
     def to_json(self) -> str:
         """The calib-stereo-result JSON (what ``calib stereo -o`` writes)."""
+    @staticmethod
+    def from_json(text: str) -> StereoCalibration:
+        """The result again from its ``to_json()`` text (pickling and ``copy`` go through it)."""
     def __len__(self) -> int: ...
+    @overload
     def __getitem__(self, index: int) -> Any: ...
+    @overload
+    def __getitem__(self, index: slice) -> tuple[Any, ...]: ...
     def __iter__(self) -> Iterator[Any]: ...
 
 class RigCalibration:
@@ -249,8 +261,14 @@ class RigCalibration:
     def summary(self) -> str: ...
     def to_json(self) -> str:
         """The calib-rig-result JSON (what ``calib rig -o`` writes)."""
+    @staticmethod
+    def from_json(text: str) -> RigCalibration:
+        """The result again from its ``to_json()`` text (pickling and ``copy`` go through it)."""
     def __len__(self) -> int: ...
+    @overload
     def __getitem__(self, index: int) -> Any: ...
+    @overload
+    def __getitem__(self, index: slice) -> tuple[Any, ...]: ...
     def __iter__(self) -> Iterator[Any]: ...
 
 def calibrate_camera(
@@ -425,4 +443,5 @@ def write_calibration(
 
 def read_calibration(path: Union[str, PathLike[str]]) -> CalibrationDict:
     """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo / rig result JSON
-    (the kind is recognized from the content), as a dict (see CalibrationDict)."""
+    (the kind is recognized from the content), as a dict (see CalibrationDict). A str that
+    starts with '{' (a result's to_json()) or spans several lines is read as the text itself."""
