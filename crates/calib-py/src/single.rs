@@ -37,6 +37,27 @@ pub fn views(
         .collect()
 }
 
+/// A crate's error message that starts with `"{what} {i}"` (e.g. "view 3, point 5: ...") with the
+/// name the caller gave that view added: "view 3 ('left4.jpg'), point 5: ...". Other messages
+/// are unchanged.
+pub fn with_view_name(message: String, what: &str, names: Option<&[String]>) -> String {
+    let Some(names) = names else {
+        return message;
+    };
+    let Some(rest) = message.strip_prefix(what).and_then(|r| r.strip_prefix(' ')) else {
+        return message;
+    };
+    let digits = rest.chars().take_while(|c| c.is_ascii_digit()).count();
+    match rest[..digits]
+        .parse::<usize>()
+        .ok()
+        .and_then(|i| names.get(i))
+    {
+        Some(name) => format!("{what} {} ('{name}'){}", &rest[..digits], &rest[digits..]),
+        None => message,
+    }
+}
+
 /// `names` (a list of `n` strings) or "view 0", "view 1", ...
 pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyResult<Vec<String>> {
     match names.filter(|x| !x.is_none()) {
@@ -140,9 +161,16 @@ fn calibrate_camera(
             "image_points",
         )?,
     };
-    let result = py
-        .detach(|| calibrate(&observations, &opts))
-        .map_err(calibration_error)?;
+    let given_names: Option<Vec<String>> = names
+        .is_some_and(|n| !n.is_none())
+        .then(|| observations.views.iter().map(|v| v.name.clone()).collect());
+    let result = py.detach(|| calibrate(&observations, &opts)).map_err(|e| {
+        calibration_error(with_view_name(
+            e.to_string(),
+            "view",
+            given_names.as_deref(),
+        ))
+    })?;
     crate::emit_warnings(py, &result.warnings)?;
     Ok(CameraCalibration { inner: result })
 }

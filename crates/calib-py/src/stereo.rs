@@ -193,6 +193,7 @@ fn stereo_calibrate(
         }
     };
 
+    let given_names = names.is_some_and(|n| !n.is_none());
     let objects = convert::view_list(object_points, "object_points")?;
     let left_images = convert::view_list(image_points1, "image_points1")?;
     let right_images = convert::view_list(image_points2, "image_points2")?;
@@ -209,6 +210,7 @@ fn stereo_calibrate(
         "image_points2",
     )?;
     let names = view_names(names, objects.len(), "pair")?;
+    let given_names = given_names.then(|| names.clone());
     let mut pairs = Vec::with_capacity(objects.len());
     for (i, name) in names.into_iter().enumerate() {
         let object = convert::points3(&objects[i], &format!("object_points[{i}]"))?;
@@ -236,7 +238,13 @@ fn stereo_calibrate(
     };
     let result = py
         .detach(|| calibrate_stereo(&observations, &opts))
-        .map_err(calibration_error)?;
+        .map_err(|e| {
+            calibration_error(crate::single::with_view_name(
+                e.to_string(),
+                "pair",
+                given_names.as_deref(),
+            ))
+        })?;
     crate::emit_warnings(py, &result.warnings)?;
     Ok(StereoCalibrationResult { inner: result })
 }

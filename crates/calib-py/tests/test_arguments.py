@@ -153,3 +153,19 @@ def test_undistort_points_dist_none_and_r_checked():
     by_matrix = calib.undistort_points(pts, K, None, R=Rm)
     assert np.allclose(by_vector, by_matrix, atol=1e-12)
     assert np.isfinite(by_matrix).all()
+
+
+def test_names_appear_in_error_messages(left):
+    obj, img, size = left
+    names = [f"left{i + 1}.jpg" for i in range(len(obj))]
+    bad = [x.copy() for x in img]
+    bad[3][5, 0] = np.nan
+    with pytest.raises(calib.CalibrationError, match=r"^view 3 \('left4\.jpg'\), point 5: non-finite"):
+        calib.calibrate_camera(obj, bad, size, names=names)
+    with pytest.raises(calib.CalibrationError, match=r"^view 3, point 5: non-finite"):
+        calib.calibrate_camera(obj, bad, size)
+    o, l, r, s = stereo_arrays("sourishg1/stereo.json")
+    r = [x.copy() for x in r]
+    r[4][0, 0] = np.inf
+    with pytest.raises(calib.CalibrationError, match=r"^pair 4 \('p4'\), right view"):
+        calib.stereo_calibrate(o, l, r, s, names=[f"p{i}" for i in range(len(o))])
