@@ -79,9 +79,11 @@ pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyR
 
 /// Calibrates one camera from views of a planar board, like ``cv2.calibrateCamera``.
 ///
-/// ``object_points``: one array per view of board points, shape (N, 3) or (N, 1, 3), Z = 0.
-/// ``image_points``: one array per view of pixels, shape (N, 2) or (N, 1, 2), same order.
-/// float32 or float64 (integers are converted). ``image_size``: (width, height).
+/// ``object_points``: one array per view of board points, shape (N, 3) or (N, 1, 3), Z = 0, in
+/// any length unit (the translations come out in it). ``image_points``: one array per view of
+/// pixels, shape (N, 2) or (N, 1, 2), same order, in OpenCV's pixel convention (the centre of the
+/// first pixel is (0, 0), x to the right, y down). float32 or float64 (integers are converted).
+/// ``image_size``: (width, height) in pixels.
 ///
 /// ``model``: "brown-conrady4" (k1 k2 p1 p2, the default), "brown-conrady5" (+k3, OpenCV's
 /// default model), "rational8", "thin-prism12" or "kannala-brandt4" (fisheye).
@@ -91,12 +93,24 @@ pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyR
 /// works unchanged.
 ///
 /// ``K`` and ``dist``: start from this camera matrix and these coefficients instead of the
-/// closed-form guess. ``reject_outliers``: drop points far beyond the noise
-/// (``outlier_threshold`` robust sigmas) and solve again; off by default, so that every point is
-/// fitted as cv2 does. ``drop_duplicate_views``: leave out repeated views (with a warning).
+/// closed-form guess; without ``model`` the number of coefficients picks the model (4
+/// brown-conrady4, 5 brown-conrady5, 8 rational8, 12 thin-prism12), so cv2's (1, 5) array works
+/// as it is. ``reject_outliers``: drop points far beyond the noise (``outlier_threshold`` robust
+/// sigmas, at least 2) and solve again; off by default, so that every point is fitted as cv2
+/// does. ``loss``: ``None`` (least squares), ``"huber"`` or ``"cauchy"``, robust beyond
+/// ``loss_scale`` pixels. ``rotation``: the pose parameterization during the optimization,
+/// ``"euler"`` (default), ``"axis-angle"`` or ``"so3"`` (``pose_std`` is given in it). ``max_iterations``: Levenberg-Marquardt iterations at most
+/// (default 500). ``skip_bad_views``: leave out views that cannot be used (too few points,
+/// degenerate) and list them in ``skipped_views`` instead of raising. ``drop_duplicate_views``:
+/// leave out repeated views (with a warning). ``compute_std``: compute the standard deviations
+/// (``std``, ``pose_std``; all zero with ``False``, which is slightly faster). ``names``: one
+/// string per view (file names, say), used in messages, warnings and ``to_json()``.
 /// ``threads``: 0 uses every core; the result does not depend on it.
 ///
-/// Returns a :class:`CameraCalibration`, which unpacks as ``rms, K, dist, rvecs, tvecs``.
+/// Returns a :class:`CameraCalibration`, which unpacks as ``rms, K, dist, rvecs, tvecs``:
+/// ``rvecs`` / ``tvecs`` are the board-to-camera poses as cv2's (``X_cam = R(rvec) X_board +
+/// tvec``, Rodrigues vectors, translations in the board's unit), RMS in pixels. Each warning of
+/// the result is also emitted with ``warnings.warn`` as a :class:`CalibrationWarning`.
 /// Raises :class:`CalibrationError` with the crate's message (naming the view and point) when the
 /// data cannot be calibrated. The GIL is released while it runs.
 #[pyfunction]

@@ -44,3 +44,13 @@ def test_docstrings_and_version():
     assert calib.CameraCalibration.__doc__ and calib.CalibrationError.__doc__
     assert calib.__version__.count(".") == 2
     assert calib.CalibrationError.__module__ == "calib"
+
+
+def test_calibrate_camera_docstring_covers_every_argument_and_convention():
+    import inspect
+
+    doc = calib.calibrate_camera.__doc__
+    for name in inspect.signature(calib.calibrate_camera).parameters:
+        assert f"``{name}``" in doc, name
+    for words in ["(0, 0)", "board-to-camera", "pixels", "CalibrationWarning"]:
+        assert words in doc, words
