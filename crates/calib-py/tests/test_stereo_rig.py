@@ -152,7 +152,13 @@ def test_rig_errors():
         calib.calibrate_rig([size, size], obj, [{0: left[0], 1: right[0][:, :1]}] + frames[1:])
     with pytest.raises(calib.CalibrationError, match="camera 'cam1' has 53 image points for 54 board points"):
         calib.calibrate_rig([size, size], obj, [{0: left[0], 1: right[0][:-1]}] + frames[1:])
+    # A third camera in two frames only (its corners shifted: the same corners as cam1's would be
+    # refused as one image given for two cameras, below).
     with pytest.raises(calib.CalibrationError, match="saw the board in 2 frames"):
+        calib.calibrate_rig([size, size, size], obj, frames[:2] + [{0: l, 1: r, 2: r + 7.0}
+                                                                   for l, r in zip(left[2:4], right[2:4])] + frames[4:],
+                            )
+    with pytest.raises(calib.CalibrationError, match="frame 2: cameras 'cam1' and 'cam2' have the same corners"):
         calib.calibrate_rig([size, size, size], obj, frames[:2] + [{0: l, 1: r, 2: r}
                                                                    for l, r in zip(left[2:4], right[2:4])] + frames[4:],
                             )
