@@ -127,7 +127,16 @@ pub struct JointSolution {
     /// `sum |e|^2` over the user-weighted points, rejected or not (with outlier rejection; the
     /// points rejection can pick from, and the base of [`truncated_cost`]).
     pub(crate) candidate_sum_sq: f64,
+    /// Per camera, the radial errors of the used points in [`RADIAL_BANDS`] bands of distance
+    /// from the principal point (band `b`: `b / RADIAL_BANDS` to `(b + 1) / RADIAL_BANDS` of
+    /// the farthest image corner's distance): `(sum of e . u, count)` with `u` the unit vector
+    /// from the principal point to the measured pixel. For the lack-of-fit check of
+    /// [`crate::diagnostics::camera_warnings`].
+    pub(crate) radial_bands: Vec<[(f64, usize); RADIAL_BANDS]>,
 }
+
+/// Bands of distance from the principal point in [`JointSolution::radial_bands`].
+pub(crate) const RADIAL_BANDS: usize = 8;
 
 /// Reprojection error statistics of one observation at a solution, pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -940,6 +949,22 @@ fn solve_with<R: RotationParameterization>(
     let mut errors = Vec::with_capacity(problem.observations.len());
     let mut buffer = Vec::new();
     let mut weighted = 0.0;
+    let mut radial_bands = vec![[(0.0, 0usize); RADIAL_BANDS]; n_cam];
+    // Principal point and farthest image corner's distance from it, per camera.
+    let centres: Vec<(Vector2<f64>, f64)> = problem
+        .cameras
+        .iter()
+        .zip(&cameras)
+        .map(|(spec, camera)| {
+            let k = camera.intrinsics;
+            let (w, h) = (
+                f64::from(spec.image_size.width) - 0.5,
+                f64::from(spec.image_size.height) - 0.5,
+            );
+            let far = (k.cx + 0.5).max(w - k.cx).hypot((k.cy + 0.5).max(h - k.cy));
+            (Vector2::new(k.cx, k.cy), far)
+        })
+        .collect();
     for (i, o) in problem.observations.iter().enumerate() {
         let params: Vec<&[f64]> = lm
             .residual_blocks_of(lm_solver::ResidualBlockId(i))
@@ -960,6 +985,15 @@ fn solve_with<R: RotationParameterization>(
                 s.sum += e;
                 s.sum_sq_xy += e.component_mul(e);
                 weighted += w * sq;
+                let (centre, far) = centres[o.camera];
+                let d = o.pixels[k] - centre;
+                let r = d.norm();
+                if r > 0.0 && far > 0.0 {
+                    let band = ((r / far * RADIAL_BANDS as f64) as usize).min(RADIAL_BANDS - 1);
+                    let entry = &mut radial_bands[o.camera][band];
+                    entry.0 += e.dot(&d) / r;
+                    entry.1 += 1;
+                }
             }
             if let Some(floor_sq) = floor_sq
                 && user_weights.is_none_or(|w| w[k] > 0.0)
@@ -1003,6 +1037,7 @@ fn solve_with<R: RotationParameterization>(
         candidate_sum_sq,
         outlier_candidates,
         undetermined,
+        radial_bands,
     };
     check_finite(&solution)?;
     Ok(solution)

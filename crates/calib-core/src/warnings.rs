@@ -33,6 +33,9 @@ pub enum WarningCode {
     /// Images (or stereo pairs) given to calibrate from photographs were left out: the board
     /// was not found in them (the result lists them with the reasons).
     ImagesSkipped,
+    /// The errors vary with the distance from the principal point far beyond the noise: the
+    /// lens model does not fit, and the standard deviations do not cover that misfit.
+    ModelMisfit,
     /// A code written by a newer version.
     #[serde(other)]
     Other,
@@ -53,6 +56,7 @@ impl WarningCode {
             WarningCode::PoorCoverage => "poor-coverage",
             WarningCode::ModelInvalid => "model-invalid",
             WarningCode::ImagesSkipped => "images-skipped",
+            WarningCode::ModelMisfit => "model-misfit",
             WarningCode::Other => "other",
         }
     }

@@ -102,3 +102,30 @@ fn noise_free_fisheye_data_recovers_the_camera() {
         );
     }
 }
+
+/// A fisheye lens fitted with a pinhole model too simple for it gets the `model-misfit` warning
+/// (its radial errors change with the distance from the principal point far beyond the noise,
+/// and its sigmas cover the noise only); fitted with kannala-brandt4 it does not, nor does the
+/// noise-free fit.
+#[test]
+fn a_lens_model_too_simple_for_the_lens_is_called_a_misfit() {
+    let mut config = fisheye(5, 150.0);
+    config.views = 20;
+    config.noise_px = 0.3;
+    config.max_tilt_deg = 45.0;
+    let set = generate(&config).unwrap();
+    let misfit = |model: CameraModel, observations| {
+        let mut options = CalibrationOptions::default();
+        options.model = model;
+        let result = calibrate(observations, &options).unwrap();
+        result
+            .warnings
+            .iter()
+            .any(|w| w.code == calib_core::WarningCode::ModelMisfit)
+    };
+    assert!(misfit(CameraModel::BrownConrady4, &set.observations));
+    assert!(!misfit(CameraModel::KannalaBrandt4, &set.observations));
+    config.noise_px = 0.0;
+    let clean = generate(&config).unwrap();
+    assert!(!misfit(CameraModel::KannalaBrandt4, &clean.observations));
+}
