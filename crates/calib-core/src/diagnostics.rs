@@ -405,22 +405,30 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                 // linearized sigmas of the parameters that trade off with it are too small.
                 // In a rig the transforms trade off with that direction too (measured: a
                 // thin-prism12 camera's stereo R off by 12 sigma, T by 9).
+                let simpler = fewer_terms_advice(
+                    camera.model,
+                    &loose
+                        .iter()
+                        .copied()
+                        .filter(|n| names[4..].contains(n))
+                        .collect::<Vec<_>>(),
+                );
+                let (them, their) = if loose.len() > 1 {
+                    (
+                        "them",
+                        "their values mean little, as their large sigmas say",
+                    )
+                } else {
+                    ("it", "its value means little, as its large sigma says")
+                };
                 let advice = if distortion_loose && !model_is_linear_in_distortion(camera.model) {
                     &format!(
-                        "the sigmas of this camera's other parameters{} may understate their uncertainty; {}",
+                        "the sigmas of this camera's other parameters{} may understate their uncertainty; {simpler}",
                         if several {
                             " and of the rig's transforms"
                         } else {
                             ""
                         },
-                        fewer_terms_advice(
-                            camera.model,
-                            &loose
-                                .iter()
-                                .copied()
-                                .filter(|n| names[4..].contains(n))
-                                .collect::<Vec<_>>()
-                        )
                     )
                 } else if distortion_loose {
                     // The pixel is linear in these coefficients: along their trade-off the cost
@@ -428,24 +436,7 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                     // sigma of brown-conrady5 and kannala-brandt4 fits within 0.93 to 1.07 of
                     // the spread over 200 seeds while this warning was given).
                     &format!(
-                        "the data constrains {} only in combination with other parameters: alone {} little, as {} large sigma{} say{} (the other parameters' sigmas account for it); {}",
-                        if loose.len() > 1 { "them" } else { "it" },
-                        if loose.len() > 1 {
-                            "their values mean"
-                        } else {
-                            "its value means"
-                        },
-                        if loose.len() > 1 { "their" } else { "its" },
-                        if loose.len() > 1 { "s" } else { "" },
-                        if loose.len() > 1 { "" } else { "s" },
-                        fewer_terms_advice(
-                            camera.model,
-                            &loose
-                                .iter()
-                                .copied()
-                                .filter(|n| names[4..].contains(n))
-                                .collect::<Vec<_>>()
-                        )
+                        "the data constrains {them} only in combination with other parameters: alone {their} (the other parameters' sigmas account for it); {simpler}"
                     )
                 } else {
                     "add views with the board tilted in different directions and covering the image"
