@@ -629,7 +629,7 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
         )
     };
     let page = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:1400px;margin:1em auto;padding:0 1em}}figure{{display:inline-block;vertical-align:top;width:660px;margin:0.5em}}figure img{{width:640px;border:1px solid #ccc}}figcaption{{font-size:0.9em;color:#333}}pre{{background:#f4f4f4;padding:0.5em;white-space:pre-wrap}}.note{{color:#a40}}.warnings{{background:#fff4e0;border:2px solid #d80;padding:0.2em 1em;margin:1em 0}}.warnings h2{{font-size:1.1em;color:#a40}}.warnings li{{margin:0.4em 0}}</style></head>\n<body><h1>{title}</h1>\n{warnings}<pre>{summary}</pre>\n{sections}<p>How to read these plots: docs/after-calibration.md.</p></body></html>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:1400px;margin:1em auto;padding:0 1em}}figure{{display:inline-block;vertical-align:top;width:660px;margin:0.5em}}figure img{{width:640px;border:1px solid #ccc}}figcaption{{font-size:0.9em;color:#333}}pre{{background:#f4f4f4;padding:0.5em;white-space:pre-wrap}}.note{{color:#a40}}.warnings{{background:#fff4e0;border:2px solid #d80;padding:0.2em 1em;margin:1em 0}}.warnings h2{{font-size:1.1em;color:#a40}}.warnings li{{margin:0.4em 0}}</style></head>\n<body><h1>{title}</h1>\n{warnings}<pre>{summary}</pre>\n{sections}{REPORT_FOOTER}</body></html>\n",
         title = html(&input.title),
         summary = html(&input.summary),
     );
@@ -658,18 +658,36 @@ pub fn write_report(input: &ReportInput, dir: &Path) -> Result<Vec<PathBuf>, Exp
     Ok(paths.into_iter().map(|(path, _)| path).collect())
 }
 
-/// The plot files a previous report's `index.html` shows (plain `*.svg` names in this folder
-/// only), to be removed when the new report does not write them.
+/// The last line of every report's page: how [`previous_plots`] recognizes one.
+const REPORT_FOOTER: &str = "<p>How to read these plots: docs/after-calibration.md.</p>";
+
+/// The plot files a previous report's `index.html` shows, to be removed when the new report
+/// does not write them: only if that page is a report (its footer) and only names of this
+/// module's plots (`layout.svg`, `KIND-CAM.svg`, plain characters, in this folder), so a
+/// folder's other files are never touched.
 fn previous_plots(index: &Path) -> Vec<String> {
+    const KINDS: [&str; 8] = [
+        "residuals-",
+        "mean-residuals-",
+        "scatter-",
+        "coverage-",
+        "rms-",
+        "poses-",
+        "distortion-",
+        "uncertainty-",
+    ];
     let Ok(text) = std::fs::read_to_string(index) else {
         return Vec::new();
     };
+    if !text.contains(REPORT_FOOTER) {
+        return Vec::new();
+    }
     text.split("<img src=\"")
         .skip(1)
         .filter_map(|rest| rest.split('"').next())
         .filter(|file| {
-            file.ends_with(".svg")
-                && !file.starts_with('.')
+            (*file == "layout.svg"
+                || (file.ends_with(".svg") && KINDS.iter().any(|k| file.starts_with(k))))
                 && file
                     .chars()
                     .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))

@@ -384,7 +384,8 @@ fn distortion_plot_shows_the_validity_radius() {
 
 /// A report rewritten in the same folder never mixes two reports: cameras whose names differ only
 /// in characters a file name cannot hold (`左カメラ`, `右カメラ`) get their own plots; plots the
-/// new report does not have are removed; a write that fails leaves the previous report whole;
+/// new report does not have are removed (and only those: a foreign page's images stay); a write
+/// that fails leaves the previous report whole;
 /// warnings come first, in their own box.
 #[test]
 fn reports_in_one_folder_never_mix() {
@@ -399,7 +400,13 @@ fn reports_in_one_folder_never_mix() {
     rig.cameras[0].name = "左カメラ".into();
     rig.cameras[1].name = "右カメラ".into();
     rig.cameras[1].views.truncate(3);
+    // A folder holding someone else's page: its images are not the report's to remove.
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("index.html"), "<img src=\"logo.svg\">").unwrap();
+    std::fs::write(dir.join("logo.svg"), "<svg></svg>").unwrap();
     write_report(&rig, &dir).unwrap();
+    assert!(dir.join("logo.svg").exists());
+    std::fs::remove_file(dir.join("logo.svg")).unwrap();
     check_report(&dir, 16);
     let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
     let rms: Vec<&str> = page
