@@ -1133,7 +1133,10 @@ fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
     svg(
         |root| {
             let mut c = ChartBuilder::on(root)
-                .caption("camera and boards (camera frame)", ("sans-serif", 16))
+                .caption(
+                    "camera and boards (camera frame: x right, y up, z forward)",
+                    ("sans-serif", 16),
+                )
                 .margin(10)
                 .build_cartesian_3d(-lim..lim, -lim..lim, 0.0..zmax)?;
             c.with_projection(|mut p| {
@@ -1209,7 +1212,7 @@ fn layout_svg(input: &ReportInput, layout: &RigLayout) -> DrawResult<String> {
         |root| {
             let mut c = ChartBuilder::on(root)
                 .caption(
-                    "cameras and boards (reference camera frame)",
+                    "cameras and boards (reference camera frame: x right, y up, z forward)",
                     ("sans-serif", 16),
                 )
                 .margin(10)
@@ -1260,9 +1263,11 @@ fn layout_svg(input: &ReportInput, layout: &RigLayout) -> DrawResult<String> {
                     ring,
                     BLACK.stroke_width(2),
                 )))?;
+                // The name above the frustum (the camera's -y, its up), clear of its lines.
+                let above = centre + back.rotation * Vector3::new(0.0, -1.2 * depth, 0.0);
                 c.draw_series(std::iter::once(Text::new(
                     camera.name.clone(),
-                    to(&centre),
+                    to(&above),
                     ("sans-serif", 14).into_font().color(&BLUE),
                 )))?;
             }
