@@ -202,10 +202,12 @@ fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str])
     // The fisheye has no simpler model of its kind: hold its highest free coefficients.
     let remedy = match (model, free) {
         (CameraModel::KannalaBrandt4, [.., a, b]) => format!(
-            "hold the higher coefficients fixed (--fix {b} or --fix {a},{b}) or add views with the board near the image corners"
+            "hold the higher coefficients fixed ({}) or add views with the board near the image corners",
+            hold_advice(&[&[b], &[a, b]])
         ),
         (CameraModel::KannalaBrandt4, [b]) => format!(
-            "hold the higher coefficients fixed (--fix {b}) or add views with the board near the image corners"
+            "hold the higher coefficients fixed ({}) or add views with the board near the image corners",
+            hold_advice(&[&[b]])
         ),
         _ => "use a model with fewer terms or add views with the board near the image corners"
             .to_string(),
@@ -216,6 +218,25 @@ fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str])
         100.0 * (1.0 + VALIDITY_MARGIN),
         validity.valid_radius_px
     )
+}
+
+/// How to hold coefficients fixed, in both front ends: each of `choices` (alternatives, each a
+/// set of names) as the command line's `--fix` and as the Python functions' `fix=`, e.g.
+/// "--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4']". The messages are shared by
+/// `calib` and the Python package.
+fn hold_advice(choices: &[&[&str]]) -> String {
+    let cli: Vec<String> = choices
+        .iter()
+        .map(|names| format!("--fix {}", names.join(",")))
+        .collect();
+    let python: Vec<String> = choices
+        .iter()
+        .map(|names| {
+            let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+            format!("fix=[{}]", quoted.join(", "))
+        })
+        .collect();
+    format!("{}; Python: {}", cli.join(" or "), python.join(" or "))
 }
 
 /// What to do about distortion coefficients the data does not determine, for `model`: a model
@@ -233,9 +254,9 @@ fn fewer_terms_advice(model: CameraModel, loose: &[&str]) -> String {
         CameraModel::BrownConrady4 | CameraModel::KannalaBrandt4 => {
             // The highest loose coefficient first, then the two highest.
             let hold = match loose {
-                [] => "--fix, e.g. --fix k2".to_string(),
-                [one] => format!("--fix {one}"),
-                [.., a, b] => format!("--fix {b} or --fix {a},{b}"),
+                [] => format!("e.g. {}", hold_advice(&[&["k2"]])),
+                [one] => hold_advice(&[&[one]]),
+                [.., a, b] => hold_advice(&[&[b], &[a, b]]),
             };
             let reach = if model.is_fisheye() { ", out to its corners" } else { "" };
             format!("hold the undetermined coefficients fixed ({hold}) or add views covering the image{reach}")
@@ -299,7 +320,7 @@ fn radial_misfit(
         Warning::new(
             WarningCode::ModelMisfit,
             format!(
-                "{who}{model}: the errors change with the distance from the principal point (mean radial error up to {largest:+.3} px in a band of distance, against {sigma:.3} px of noise; chi-square {chi2:.0} over {bands} bands, where noise alone gives about {bands}): the lens model does not fit this lens, and the standard deviations cover the noise only, not this misfit; compare lens models (calib single --compare-models)"
+                "{who}{model}: the errors change with the distance from the principal point (mean radial error up to {largest:+.3} px in a band of distance, against {sigma:.3} px of noise; chi-square {chi2:.0} over {bands} bands, where noise alone gives about {bands}): the lens model does not fit this lens, and the standard deviations cover the noise only, not this misfit; compare lens models (calib single --compare-models; Python: calib.compare_models)"
             ),
         )
     })
@@ -545,10 +566,16 @@ mod tests {
         );
         let all = ["k1", "k2", "k3", "k4"];
         let fisheye = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all);
-        assert!(fisheye.contains("(--fix k4 or --fix k3,k4)"), "{fisheye}");
+        assert!(
+            fisheye.contains("(--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4'])"),
+            "{fisheye}"
+        );
         // With k4 held already, the advice goes on from the highest free one.
         let held = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all[..3]);
-        assert!(held.contains("(--fix k3 or --fix k2,k3)"), "{held}");
+        assert!(
+            held.contains("(--fix k3 or --fix k2,k3; Python: fix=['k3'] or fix=['k2', 'k3'])"),
+            "{held}"
+        );
     }
 
     #[test]
@@ -583,10 +610,16 @@ mod tests {
         // Holding names what is loose and not held yet (with --fix k4 given, k3 alone is left).
         assert!(
             fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3", "k4"])
-                .contains("(--fix k4 or --fix k3,k4)")
+                .contains("(--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4'])")
         );
-        assert!(fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3"]).contains("(--fix k3)"));
-        assert!(fewer_terms_advice(CameraModel::BrownConrady4, &["k2"]).contains("--fix k2"));
+        assert!(
+            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3"])
+                .contains("(--fix k3; Python: fix=['k3'])")
+        );
+        assert!(
+            fewer_terms_advice(CameraModel::BrownConrady4, &["k2"])
+                .contains("--fix k2; Python: fix=['k2']")
+        );
     }
 
     use super::*;

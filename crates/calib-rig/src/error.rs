@@ -23,7 +23,7 @@ pub enum RigError {
     InvalidOption(String),
     /// A camera saw the board in too few frames to calibrate its own intrinsics.
     #[error(
-        "camera '{camera}' saw the board in {views} frame{}: at least {needed} are needed for its own intrinsics; calibrate it alone and give them with --intrinsics {camera}=RESULT.json",
+        "camera '{camera}' saw the board in {views} frame{}: at least {needed} are needed for its own intrinsics; calibrate it alone and give its intrinsics (--intrinsics {camera}=RESULT.json; Python: known={{'{camera}': (K, dist)}})",
         if *.views == 1 { "" } else { "s" }
     )]
     TooFewViews {
@@ -55,7 +55,7 @@ pub enum RigError {
     /// Views whose board pose contradicts the rest of the rig (one entry per frame, naming the
     /// cameras).
     #[error(
-        "views disagree with the rig (corners numbered differently, or views from different moments): {}; fix the correspondences, remove those views, or leave them out with --skip-bad-views",
+        "views disagree with the rig (corners numbered differently, or views from different moments): {}; fix the correspondences, remove those views, or leave them out (--skip-bad-views; Python: skip_bad_views=True)",
         .0.join("; ")
     )]
     InconsistentViews(Vec<String>),

@@ -60,7 +60,12 @@ fn a_camera_with_too_few_frames_is_told_to_bring_its_intrinsics() {
         matches!(error, RigError::TooFewViews { views: 2, .. }),
         "{error}"
     );
-    assert!(error.to_string().contains("--intrinsics cam2="), "{error}");
+    // Both front ends' ways of giving them: the command's option and the Python argument.
+    let text = error.to_string();
+    assert!(
+        text.contains("--intrinsics cam2=RESULT.json; Python: known={'cam2': (K, dist)}"),
+        "{text}"
+    );
 
     // Given (fixed) intrinsics make the same rig solvable.
     let mut options = RigOptions::default();
@@ -223,6 +228,10 @@ fn a_view_with_reversed_corners_is_named() {
         "{message}"
     );
     assert_eq!(message.matches("frame ").count(), 1, "{message}");
+    assert!(
+        message.contains("(--skip-bad-views; Python: skip_bad_views=True)"),
+        "{message}"
+    );
 
     // Left out with a warning on request; the rest calibrates as before.
     let mut options = RigOptions::default();
