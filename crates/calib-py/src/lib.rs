@@ -12,6 +12,7 @@
 mod result_object;
 mod args;
 mod camera;
+mod compare;
 mod convert;
 mod detect;
 mod export;
@@ -115,6 +116,7 @@ fn calib_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CalibrationWarning", py.get_type::<CalibrationWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     single::register(m)?;
+    compare::register(m)?;
     stereo::register(m)?;
     rig::register(m)?;
     detect::register(m)?;

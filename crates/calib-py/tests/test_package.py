@@ -26,14 +26,16 @@ def stub_names():
 def test_stubs_cover_the_module():
     top, members = stub_names()
     assert set(calib.__all__) <= top
-    for cls in [calib.CameraCalibration, calib.StereoCalibration, calib.RigCalibration, calib.CalibrationWarning]:
+    for cls in [calib.CameraCalibration, calib.StereoCalibration, calib.RigCalibration,
+                calib.CalibrationWarning, calib.ModelComparison, calib.ModelRow]:
         public = {a for a in dir(cls) if not a.startswith("_")} - set(dir(UserWarning))
         assert public <= members[cls.__name__], public - members[cls.__name__]
     assert STUB.with_name("py.typed").exists()
 
 
 def test_docstrings_and_version():
-    for name in ["calibrate_camera", "stereo_calibrate", "calibrate_rig", "detect_chessboard",
+    for name in ["calibrate_camera", "compare_models", "stereo_calibrate", "calibrate_rig",
+                 "detect_chessboard",
                  "undistort_points", "imread_gray", "board_points", "stereo_rectify",
                  "write_calibration", "read_calibration"]:
         f = getattr(calib, name)

@@ -1,9 +1,9 @@
 """Camera calibration from NumPy arrays, shaped like OpenCV's functions.
 
-Single cameras (:func:`calibrate_camera`), stereo pairs (:func:`stereo_calibrate`), rigs of N
-cameras (:func:`calibrate_rig`), chessboard detection (:func:`detect_chessboard`),
-undistortion (:func:`undistort_points`), stereo rectification (:func:`stereo_rectify`) and the
-OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
+Single cameras (:func:`calibrate_camera`; lens models compared with :func:`compare_models`),
+stereo pairs (:func:`stereo_calibrate`), rigs of N cameras (:func:`calibrate_rig`), chessboard
+detection (:func:`detect_chessboard`), undistortion (:func:`undistort_points`), stereo
+rectification (:func:`stereo_rectify`) and the OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
 is done by the project's Rust crates (the extension module ``calib._calib``) with the GIL
 released; failures raise :class:`CalibrationError` with the Rust message. See docs/python.md.
 
@@ -15,12 +15,15 @@ from ._calib import (
     CalibrationError,
     CalibrationWarning,
     CameraCalibration,
+    ModelComparison,
+    ModelRow,
     RigCalibration,
     StereoCalibration,
     __version__,
     board_points,
     calibrate_camera,
     calibrate_rig,
+    compare_models,
     detect_chessboard,
     imread_gray,
     read_calibration,
@@ -35,12 +38,15 @@ __all__ = [
     "CalibrationError",
     "CalibrationWarning",
     "CameraCalibration",
+    "ModelComparison",
+    "ModelRow",
     "RigCalibration",
     "StereoCalibration",
     "__version__",
     "board_points",
     "calibrate_camera",
     "calibrate_rig",
+    "compare_models",
     "detect_chessboard",
     "imread_gray",
     "read_calibration",

@@ -271,6 +271,52 @@ class RigCalibration:
     def __getitem__(self, index: slice) -> tuple[Any, ...]: ...
     def __iter__(self) -> Iterator[Any]: ...
 
+class ModelRow:
+    """One model's row of a :class:`ModelComparison`."""
+
+    @property
+    def model(self) -> str: ...
+    @property
+    def parameters(self) -> int:
+        """Camera parameters (fx, fy, cx, cy and the coefficients) less the coefficients held
+        by ``fix`` (a held principal point still counts, as in the command's table)."""
+    @property
+    def rms(self) -> Optional[float]:
+        """RMS on all views, pixels (None if the calibration failed)."""
+    @property
+    def cross_validated_rms(self) -> Optional[float]:
+        """Fitted on the even-numbered views, evaluated on the odd-numbered ones and the other
+        way round, pixels (None with fewer than 4 views)."""
+    @property
+    def valid_over_image(self) -> bool: ...
+    @property
+    def warnings(self) -> list[CalibrationWarning]:
+        """The warnings of the fit on all views (not emitted with warnings.warn)."""
+    @property
+    def error(self) -> Optional[str]:
+        """Why the calibration failed, None if it did not."""
+
+class ModelComparison:
+    """Result of :func:`compare_models`; ``str()`` is the table ``calib single
+    --compare-models`` prints."""
+
+    @property
+    def rows(self) -> list[ModelRow]: ...
+    @property
+    def recommended(self) -> Optional[str]:
+        """Fewest parameters among the valid models within 2% of the best cross-validated RMS."""
+    @property
+    def best_fit(self) -> Optional[str]:
+        """Lowest cross-validated RMS of all fitted models, valid or not."""
+    @property
+    def gap_to_best_fit(self) -> Optional[float]:
+        """recommended's cross-validated RMS above best_fit's, as a fraction."""
+    @property
+    def held_fixed(self) -> list[str]: ...
+    def table(self) -> str: ...
+    def to_json(self) -> str:
+        """What ``calib single --compare-models -o FILE`` writes."""
+
 def calibrate_camera(
     object_points: Iterable[Points],
     image_points: Iterable[Points],
@@ -294,6 +340,30 @@ def calibrate_camera(
 ) -> CameraCalibration:
     """Calibrates one camera, like cv2.calibrateCamera (every point fitted unless
     ``reject_outliers``). Raises CalibrationError, ValueError, TypeError."""
+
+def compare_models(
+    object_points: Iterable[Points],
+    image_points: Iterable[Points],
+    image_size: ImageSize,
+    models: Union[None, ModelName, Iterable[ModelName]] = None,
+    fix: Union[None, FixName, Iterable[FixName]] = None,
+    *,
+    K: Optional[npt.ArrayLike] = None,
+    reject_outliers: bool = False,
+    outlier_threshold: float = 5.0,
+    loss: Loss = None,
+    loss_scale: float = 1.0,
+    rotation: Optional[Rotation] = None,
+    skip_bad_views: bool = False,
+    drop_duplicate_views: bool = False,
+    max_iterations: int = 500,
+    threads: int = 0,
+    names: Optional[Sequence[str]] = None,
+) -> ModelComparison:
+    """Fits each lens model (default: the five of ``calib single --compare-models``),
+    cross-validates it and recommends one; ``fix`` coefficient names are held in every model
+    that has them. Needs 4 views or more. Raises CalibrationError (no model could be fitted),
+    ValueError, TypeError."""
 
 def stereo_calibrate(
     object_points: Iterable[Points],
