@@ -93,3 +93,27 @@ def test_bad_input_names_the_problem():
         calib.compare_models(obj, bad, size, names=names)
     with pytest.raises(TypeError, match="reject_outliers"):
         calib.compare_models(obj, img, size, reject_outliers="yes")
+
+
+def test_the_gil_is_released_while_comparing():
+    import threading
+
+    obj, img, size = single_arrays(LEFT)
+    count = [0]
+    stop = threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            count[0] += 1
+
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        before = count[0]
+        calib.compare_models(obj, img, size, models=["brown-conrady4"], threads=1)
+        during = count[0] - before
+    finally:
+        stop.set()
+        t.join()
+    # With the GIL held for the whole call the other thread could not have counted at all.
+    assert during > 1000, during
