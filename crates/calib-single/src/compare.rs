@@ -57,7 +57,8 @@ pub struct ModelRow {
 pub struct ModelComparison {
     /// One row per model, in the order given.
     pub rows: Vec<ModelRow>,
-    /// The recommended model, if any calibrated.
+    /// The recommended model: `None` when no model valid over the image could be
+    /// cross-validated (fewer than [`MIN_CROSS_VALIDATION_VIEWS`] views) or calibrated.
     pub recommended: Option<CameraModel>,
     /// The model with the lowest cross-validated RMS among all fitted ones, valid or not.
     pub best_fit: Option<CameraModel>,
@@ -123,11 +124,16 @@ impl ModelRow {
     }
 }
 
+/// Fewest views for the cross-validation (two per half).
+pub const MIN_CROSS_VALIDATION_VIEWS: usize = 4;
+
 /// Compares `models` on `observations` with `options` (its `model` is replaced by each
 /// candidate; coefficients it holds are carried over by name, [`CalibrationOptions::for_model`],
 /// its distortion guess is dropped) and `hold_fixed`, names of distortion coefficients held at
 /// zero in every model that has them ("k3", "p1"; a model without the term has it at zero by
-/// construction). Needs at least 4 views for the cross-validation; fewer give rows without it.
+/// construction). Needs at least [`MIN_CROSS_VALIDATION_VIEWS`] views for the cross-validation;
+/// fewer give rows without it and no recommendation (models are ranked by their
+/// cross-validated RMS only).
 pub fn compare_models(
     observations: &Observations,
     options: &CalibrationOptions,
@@ -151,7 +157,7 @@ pub fn compare_models(
             o.distortion_guess = None;
             let held = o.fixed_distortion.len();
             let full = calibrate(observations, &o);
-            let cross_validated_rms = (observations.views.len() >= 4)
+            let cross_validated_rms = (observations.views.len() >= MIN_CROSS_VALIDATION_VIEWS)
                 .then(|| {
                     let a = held_out(&even, &odd, &o).ok()?;
                     let b = held_out(&odd, &even, &o).ok()?;
@@ -181,7 +187,9 @@ pub fn compare_models(
             }
         })
         .collect();
-    let score = |r: &ModelRow| r.cross_validated_rms.or(r.rms);
+    // Only the cross-validated error ranks models: on the views it was fitted to, a model with
+    // more terms always wins (on one view the old fallback to the RMS recommended thin-prism12).
+    let score = |r: &ModelRow| r.cross_validated_rms;
     let best = rows
         .iter()
         .filter(|r| r.valid_over_image)
@@ -270,6 +278,12 @@ impl ModelComparison {
                     );
                 }
             },
+            None if self.rows.iter().all(|r| r.cross_validated_rms.is_none()) => {
+                let _ = writeln!(
+                    out,
+                    "no recommendation: no model could be cross-validated (it needs at least {MIN_CROSS_VALIDATION_VIEWS} views, fitted on one half and evaluated on the other), and by the RMS on the fitted views the model with the most terms always wins"
+                );
+            }
             None => {
                 let _ = writeln!(out, "no model is valid over the image");
             }

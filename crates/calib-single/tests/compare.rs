@@ -184,3 +184,25 @@ fn options_carry_held_coefficients_to_another_model_by_name() {
     );
     assert_eq!(options.for_model(CameraModel::BrownConrady4), options);
 }
+
+/// Without cross-validation (3 views) nothing is recommended: on the fitted views the model with
+/// the most terms always has the lowest RMS, and ranking by it recommended thin-prism12 on one
+/// view of a brown-conrady4 lens.
+#[test]
+fn too_few_views_to_cross_validate_give_no_recommendation() {
+    let mut three = views_of(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(800.0, 800.0, 319.5, 239.5),
+    );
+    three.views.truncate(3);
+    let c = compare_models(&three, &CalibrationOptions::default(), &MODELS, &[]);
+    assert!(c.rows.iter().any(|r| r.rms.is_some()), "{}", c.table());
+    assert!(c.rows.iter().all(|r| r.cross_validated_rms.is_none()));
+    assert_eq!(c.recommended, None, "{}", c.table());
+    assert!(
+        c.table()
+            .contains("no recommendation: no model could be cross-validated"),
+        "{}",
+        c.table()
+    );
+}
