@@ -954,7 +954,18 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
     };
     plots.push((Plot { file: format!("rms-{name}.svg"), title: "RMS per view".into(), caption: format!("Each view's RMS reprojection error over the corners the calibration used, worst first, with the number of corners rejected as outliers in that view. A view far above the others (a blurred image, a mislabelled board), or with many rejected corners, is worth checking or removing.{shown}") }, text));
 
-    plots.push((Plot { file: format!("poses-{name}.svg"), title: "Board poses".into(), caption: "The camera (frustum at the origin, looking along z) and the board in every view, in the camera's frame (board units). Good data shows boards at several distances and tilted in different directions, not all parallel to the image.".into() }, poses_svg(camera)?));
+    let stride = pose_stride(camera);
+    let which = if stride > 1 {
+        format!(" (one view in {stride} of the {})", camera.views.len())
+    } else {
+        String::new()
+    };
+    let outline = if have_points {
+        ""
+    } else {
+        " Without the observations each board is drawn as a square at its origin, a tenth of its distance wide."
+    };
+    plots.push((Plot { file: format!("poses-{name}.svg"), title: "Board poses".into(), caption: format!("The camera (frustum at the origin, looking along z) and the board in every view{which}, in the camera's frame (board units). Good data shows boards at several distances and tilted in different directions, not all parallel to the image.{outline}") }, poses_svg(camera)?));
     let validity = camera
         .camera
         .validity(camera.image_size.width, camera.image_size.height);
@@ -1073,10 +1084,18 @@ fn mean_residuals_plot(
     ))
 }
 
+/// At most this many boards in the poses plot: more are an unreadable tangle.
+const MAX_POSE_BOARDS: usize = 60;
+
+/// Every how many views the poses plot draws a board ([`MAX_POSE_BOARDS`]).
+fn pose_stride(camera: &ReportCamera) -> usize {
+    camera.views.len().div_ceil(MAX_POSE_BOARDS).max(1)
+}
+
 fn poses_svg(camera: &ReportCamera) -> DrawResult<String> {
     // Board outlines from the observed points (or a unit square), in the camera frame.
     let mut boards: Vec<Vec<Vector3<f64>>> = Vec::new();
-    for v in &camera.views {
+    for v in camera.views.iter().step_by(pose_stride(camera)) {
         let corners = match &v.points {
             Some((object, _)) if !object.is_empty() => {
                 let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);

@@ -449,6 +449,22 @@ fn reports_in_one_folder_never_mix() {
         "warnings after the summary"
     );
     assert!(page.contains("1 warning: read before using this calibration"));
+    assert!(page.contains("drawn as a square at its origin"), "{page}");
+
+    // 87 views: the poses plot draws one board in two and says so.
+    let mut many = single.clone();
+    let views = many.cameras[0].views.clone();
+    many.cameras[0]
+        .views
+        .extend(views.iter().cloned().chain(views.iter().cloned()));
+    let crowded = dir.join("crowded");
+    write_report(&many, &crowded).unwrap();
+    let page = std::fs::read_to_string(crowded.join("index.html")).unwrap();
+    assert!(
+        page.contains("every view (one view in 2 of the 87)"),
+        "{page}"
+    );
+    std::fs::remove_dir_all(&crowded).unwrap();
 
     // A folder where a plot should go: refused, the previous report untouched, no temporaries.
     std::fs::remove_file(dir.join("distortion-camera.svg")).unwrap();
