@@ -1,9 +1,10 @@
-//! `undistort_points` (`camera_model::AnyCamera`'s inverse projection) and the model table.
+//! `undistort_points` (`camera_model::AnyCamera`'s inverse projection), `project_points` (its
+//! projection) and the model table.
 
 use crate::convert;
 use crate::options;
 use camera_model::{AnyCamera, CameraModel, UndistortOptions};
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Point3, Vector2, Vector3};
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -117,8 +118,68 @@ fn undistort_points<'py>(
     Ok(PyArray1::from_vec(py, out).reshape(shape)?.into_any())
 }
 
+/// Projects world points to pixels, like ``cv2.projectPoints`` (pinhole models) and
+/// ``cv2.fisheye.projectPoints`` (kannala-brandt4): ``pixel = K distort(project(R X + t))`` with
+/// ``R`` the rotation of ``rvec``, the pixel origin at the centre of the first pixel (OpenCV's
+/// convention).
+///
+/// ``object_points``: (N, 3), (N, 1, 3) or (1, N, 3), float32 or float64. ``rvec``, ``tvec``: the
+/// pose world -> camera, a Rodrigues rotation vector of 3 values (a 3x3 rotation matrix is
+/// accepted too) and a translation, as ``cv2.solvePnP`` and ``calibrate_camera`` return them.
+/// ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order; ``dist=None`` or empty: no
+/// distortion). ``model``: the lens model; ``None`` infers it from the number of coefficients (4
+/// brown-conrady4, 5 brown-conrady5, 8 rational8, 12 thin-prism12); a fisheye camera needs
+/// ``model="kannala-brandt4"``. Returns the pixels, (N, 2) float64. A point the model cannot
+/// project (behind a pinhole camera, on the optical axis behind a fisheye camera, at a pole of a
+/// rational model) raises ``ValueError`` naming its index; bad shapes or values of the arguments
+/// (non-finite values, a ``K`` with non-positive focal lengths, a coefficient count that does not
+/// fit ``model``) raise ``ValueError`` naming the argument.
+#[pyfunction]
+#[pyo3(signature = (object_points, rvec, tvec, K, dist=None, model=None))]
+#[allow(non_snake_case)]
+fn project_points<'py>(
+    py: Python<'py>,
+    object_points: &Bound<'py, PyAny>,
+    rvec: &Bound<'py, PyAny>,
+    tvec: &Bound<'py, PyAny>,
+    K: &Bound<'py, PyAny>,
+    dist: Option<&Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = crate::args::model)] model: Option<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let rows = convert::point_rows::<3>(object_points, "object_points")?;
+    if let Some(i) = rows.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+        return Err(PyValueError::new_err(format!(
+            "object_points[{i}]: the values must be finite, got {:?}",
+            rows[i].map(convert::py_float)
+        )));
+    }
+    let pose = convert::pose(rvec, tvec, "rvec", "tvec")?;
+    let camera = camera(K, dist, model.as_deref(), None, "K", "dist", "model")?;
+    let n = rows.len();
+    let pixels = py.detach(
+        || -> Result<Vec<f64>, (usize, camera_model::CameraModelError)> {
+            let mut out = Vec::with_capacity(2 * n);
+            for (i, p) in rows.iter().enumerate() {
+                let pixel = camera
+                    .project(&pose, &Point3::new(p[0], p[1], p[2]))
+                    .map_err(|e| (i, e))?;
+                out.extend([pixel.x, pixel.y]);
+            }
+            Ok(out)
+        },
+    );
+    let pixels = pixels.map_err(|(i, e)| {
+        PyValueError::new_err(format!(
+            "object_points[{i}]: cannot be projected by {}: {e}",
+            camera.model
+        ))
+    })?;
+    Ok(PyArray1::from_vec(py, pixels).reshape([n, 2])?.into_any())
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(undistort_points, m)?)?;
+    m.add_function(wrap_pyfunction!(project_points, m)?)?;
     let models = PyDict::new(m.py());
     for model in CameraModel::ALL {
         models.set_item(model.name(), model.distortion_names().to_vec())?;

@@ -2,8 +2,8 @@
 
 Single cameras (:func:`calibrate_camera`; lens models compared with :func:`compare_models`),
 stereo pairs (:func:`stereo_calibrate`), rigs of N cameras (:func:`calibrate_rig`), chessboard
-detection (:func:`detect_chessboard`), undistortion (:func:`undistort_points`), stereo
-rectification (:func:`stereo_rectify`) and the OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
+detection (:func:`detect_chessboard`), undistortion (:func:`undistort_points`), projection
+(:func:`project_points`), stereo rectification (:func:`stereo_rectify`) and the OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
 is done by the project's Rust crates (the extension module ``calib._calib``) with the GIL
 released; failures raise :class:`CalibrationError` with the Rust message. See docs/python.md.
 
@@ -26,6 +26,7 @@ from ._calib import (
     compare_models,
     detect_chessboard,
     imread_gray,
+    project_points,
     read_calibration,
     stereo_calibrate,
     stereo_rectify,
@@ -49,6 +50,7 @@ __all__ = [
     "compare_models",
     "detect_chessboard",
     "imread_gray",
+    "project_points",
     "read_calibration",
     "stereo_calibrate",
     "stereo_rectify",

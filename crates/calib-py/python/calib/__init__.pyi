@@ -464,6 +464,18 @@ def undistort_points(
     cv2.undistortPoints (dist None: no distortion; R a rotation matrix or vector); NaN where the
     model cannot be inverted."""
 
+def project_points(
+    object_points: Points,
+    rvec: npt.ArrayLike,
+    tvec: npt.ArrayLike,
+    K: npt.ArrayLike,
+    dist: Optional[npt.ArrayLike] = None,
+    model: Optional[ModelName] = None,
+) -> npt.NDArray[np.float64]:
+    """Pixels (N, 2) of world points seen from the pose (rvec, tvec), like cv2.projectPoints and
+    cv2.fisheye.projectPoints (dist None: no distortion; model None: from the coefficient count);
+    ValueError naming the index of a point the model cannot project."""
+
 def stereo_rectify(
     K1: npt.ArrayLike,
     D1: Optional[npt.ArrayLike],
