@@ -1426,13 +1426,13 @@ fn percentile(values: &[f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
-fn median(mut values: Vec<f64>) -> f64 {
-    values.retain(|v| v.is_finite());
-    if values.is_empty() {
-        return f64::NAN;
+/// The upper median of the finite `values` (NaN if there are none).
+fn median(values: Vec<f64>) -> f64 {
+    if values.iter().any(|v| v.is_finite()) {
+        percentile(&values, 0.5)
+    } else {
+        f64::NAN
     }
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
 }
 
 fn uncertainty_svg(camera: &ReportCamera) -> DrawResult<UncertaintyPlot> {
