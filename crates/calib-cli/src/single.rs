@@ -52,8 +52,8 @@ pub struct CameraArgs {
     /// Initial distortion coefficients in the model's order, e.g. k1,k2,p1,p2 (default zero).
     #[arg(long, value_name = "K1,K2,...")]
     pub distortion_guess: Option<String>,
-    /// Rotation parameterization of the poses during the optimization [default: euler; so3 for
-    /// calib rig, whose cameras may face any direction].
+    /// Rotation parameterization of the poses during the optimization [default: euler for
+    /// calib single; so3 for calib stereo and calib rig, whose cameras may face any direction].
     #[arg(long, value_enum)]
     pub rotation: Option<Rotation>,
     /// How the closed-form focal length is solved.

@@ -6,7 +6,7 @@ use crate::single::{CameraArgs, looks_like_image};
 use crate::{Failure, parse_list};
 use calib_core::JsonFile;
 use calib_stereo::{RigInit, StereoObservations, StereoOptions, calibrate_stereo};
-use camera_model::{AxisAngle, Intrinsics, Pose, RotationParameterization};
+use camera_model::{AxisAngle, Intrinsics, Pose, RotationKind, RotationParameterization};
 use clap::{Args, ValueEnum};
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -141,7 +141,13 @@ impl StereoArgs {
         };
         let mut options = StereoOptions::default();
         options.solver = camera.solver.clone();
-        options.rotation = camera.rotation;
+        // Euler angles are singular where the right camera turns 90 degrees about y from the
+        // left one (the rig's rotation then looked undetermined): so3 unless asked.
+        options.rotation = if self.camera.rotation.is_none() {
+            RotationKind::So3
+        } else {
+            camera.rotation
+        };
         options.skip_bad_pairs = camera.skip_bad_views;
         options.outliers = camera.outliers;
         options.loss = camera.loss;

@@ -33,7 +33,9 @@ const STEREO_SIGNATURE: &str = "stereo_calibrate(object_points, image_points1, i
 /// ``fix`` / ``fix2`` as in :func:`calibrate_camera` (the second camera defaults to the
 /// first's; without ``fix2``, ``fix`` holds each coefficient in the camera(s) whose model has
 /// it, as ``calib stereo --fix`` does). ``same_focal_length``: both cameras share fx, fy. ``R``, ``T``: a starting rig
-/// (rotation matrix or vector).
+/// (rotation matrix or vector). ``rotation`` defaults to ``"so3"`` here (as for
+/// :func:`calibrate_rig`; ``"euler"`` for :func:`calibrate_camera`): Euler angles are singular
+/// where the second camera turns 90 degrees about y from the first.
 ///
 /// Returns a :class:`StereoCalibration`, which unpacks as
 /// ``rms, K1, D1, K2, D2, R, T, E, F``. Raises :class:`CalibrationError` naming the pair and
@@ -165,7 +167,7 @@ fn stereo_calibrate(
     hold_given(&mut right, fix_intrinsics || fix_intrinsics2, K2);
     let mut opts = StereoOptions::default();
     opts.solver = left.solver.clone();
-    opts.rotation = common.rotation(RotationKind::EulerXyz)?;
+    opts.rotation = common.rotation(RotationKind::So3)?;
     opts.outliers = common.outliers()?;
     opts.loss = common.loss()?;
     opts.skip_bad_pairs = skip_bad_pairs;

@@ -30,7 +30,9 @@ pub struct StereoOptions {
     pub rig_guess: Option<Pose>,
     /// How the initial rig is computed.
     pub rig_init: RigInit,
-    /// Rotation parameterization of the poses and the rig during the joint optimization.
+    /// Rotation parameterization of the poses and the rig during the joint optimization
+    /// (default [`RotationKind::So3`]: Euler angles are singular where the right camera turns
+    /// 90 degrees about y from the left one, which made such a rig's rotation look undetermined).
     pub rotation: RotationKind,
     /// Outlier rejection for both the single-camera stages and the joint optimization (default
     /// on; `None` uses every point, like OpenCV). See `calib_core::outliers`.
@@ -54,7 +56,7 @@ impl Default for StereoOptions {
             same_focal_length: false,
             rig_guess: None,
             rig_init: RigInit::default(),
-            rotation: RotationKind::EulerXyz,
+            rotation: RotationKind::So3,
             outliers: Some(OutlierRejection::default()),
             loss: Loss::Trivial,
             skip_bad_pairs: false,

@@ -94,7 +94,9 @@ impl std::str::FromStr for RotationKind {
 ///
 /// The parameterization is singular (gimbal lock) at `theta_y = +-pi/2`, where only
 /// `theta_x - theta_z` (or `theta_x + theta_z`) is determined. For a camera looking at a board
-/// that means a board seen exactly edge-on, which calibration never uses.
+/// that means a board seen exactly edge-on, which calibration never uses; for the rotation
+/// between two cameras it means one camera turned 90 degrees about y from the other, a real
+/// layout: stereo and rig calibration default to [`So3`] for that reason.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EulerXyz;
 
