@@ -144,28 +144,84 @@ fn eliminate_block(
                     if count == 0 {
                         continue;
                     }
-                    // In tiles of at most 32 rows: a stack buffer, no allocation.
-                    for start in (0..count).step_by(32) {
-                        let len = (count - start).min(32);
-                        let mut acc = [0.0f64; 32];
-                        let acc = &mut acc[..len];
-                        for k in 0..d {
-                            let yj = y[lj + k * rows];
-                            let yk = &y[off_i + start + k * rows..][..len];
-                            for (a, b) in acc.iter_mut().zip(yk) {
-                                *a += b * yj;
-                            }
-                        }
-                        let column = &mut chunk.s_partial[gi + start + col * n..][..len];
-                        for (s, a) in column.iter_mut().zip(acc.iter()) {
-                            *s -= a;
-                        }
-                    }
+                    let column = &mut chunk.s_partial[gi + col * n..][..count];
+                    subtract_products(y, rows, d, off_i, lj, column);
                 }
             }
         }
     }
     true
+}
+
+/// `out[r] -= sum_k y[off + r + k rows] y[lj + k rows]` for `r < out.len()`, each sum formed
+/// from zero in the order `k = 0..d` (the same bits on every path): one column of the update
+/// `S -= Y Y^T`. `y` holds `d` columns of `rows` values.
+#[inline]
+fn subtract_products(y: &[f64], rows: usize, d: usize, off: usize, lj: usize, out: &mut [f64]) {
+    assert!(
+        off + out.len() + (d.max(1) - 1) * rows <= y.len() && lj + (d.max(1) - 1) * rows < y.len()
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above; the bounds were asserted.
+            unsafe { subtract_products_avx2(y, rows, d, off, lj, out) };
+            return;
+        }
+    }
+    for (r, o) in out.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for k in 0..d {
+            acc += y[off + r + k * rows] * y[lj + k * rows];
+        }
+        *o -= acc;
+    }
+}
+
+/// [`subtract_products`] four rows per AVX2 register: the same multiplications and additions
+/// in the same order (no fused multiply-add), with the sums in registers. The scalar loops it
+/// replaces kept them in a stack buffer and were 12% of a thin-prism12 calibration in `perf`.
+///
+/// # Safety
+/// The CPU must support AVX2, and `off + out.len() + (d - 1) rows <= y.len()`,
+/// `lj + (d - 1) rows < y.len()` (for `d >= 1`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn subtract_products_avx2(
+    y: &[f64],
+    rows: usize,
+    d: usize,
+    off: usize,
+    lj: usize,
+    out: &mut [f64],
+) {
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd, _mm256_sub_pd,
+    };
+    let count = out.len();
+    let mut r = 0;
+    // SAFETY (every load and store below): r + 4 <= count and the caller's bounds.
+    unsafe {
+        while r + 4 <= count {
+            let mut sum = _mm256_setzero_pd();
+            for k in 0..d {
+                let b = _mm256_loadu_pd(y.as_ptr().add(off + r + k * rows));
+                let yj = _mm256_set1_pd(*y.get_unchecked(lj + k * rows));
+                sum = _mm256_add_pd(sum, _mm256_mul_pd(b, yj));
+            }
+            let s = _mm256_loadu_pd(out.as_ptr().add(r));
+            _mm256_storeu_pd(out.as_mut_ptr().add(r), _mm256_sub_pd(s, sum));
+            r += 4;
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().skip(r) {
+        let mut acc = 0.0;
+        for k in 0..d {
+            acc += y[off + i + k * rows] * y[lj + k * rows];
+        }
+        *o -= acc;
+    }
 }
 
 /// Back-substitution for a chunk: `de = -L^-T (z + Y^T dr)` for every eliminated block, written
@@ -247,6 +303,48 @@ pub(crate) fn assemble_dense_schur(problem: &Problem, ne: &NormalEquations, s: &
     for j in 0..n {
         for i in j + 1..n {
             s[i + j * n] = s[j + i * n];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dispatched kernel (AVX2 where the CPU has it) against the documented order, bit for
+    /// bit, for every remainder of four rows, offsets into the middle of `Y` and several `d`.
+    #[test]
+    fn subtract_products_follows_the_documented_order() {
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for d in [1, 3, 6, 7] {
+            let rows = 23;
+            let y: Vec<f64> = (0..rows * d).map(|_| next() * 1e3).collect();
+            for off in [0, 2, 5] {
+                for count in 0..=rows - off {
+                    for lj in [0, 4, rows - 1] {
+                        let start: Vec<f64> = (0..count).map(|_| next()).collect();
+                        let mut out = start.clone();
+                        subtract_products(&y, rows, d, off, lj, &mut out);
+                        for (r, (o, s)) in out.iter().zip(&start).enumerate() {
+                            let mut acc = 0.0;
+                            for k in 0..d {
+                                acc += y[off + r + k * rows] * y[lj + k * rows];
+                            }
+                            assert_eq!(
+                                o.to_bits(),
+                                (s - acc).to_bits(),
+                                "d {d} row {r} of {count}"
+                            );
+                        }
+                    }
+                }
+            }
         }
     }
 }
