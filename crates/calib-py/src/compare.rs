@@ -216,9 +216,9 @@ impl ModelRow {
         self.inner.model.name()
     }
 
-    /// Number of camera parameters: fx, fy, cx, cy and the distortion coefficients, less the
-    /// coefficients held by ``fix`` (as the command's table: a held principal point or focal
-    /// length still counts).
+    /// Number of camera parameters the calibration estimates: fx, fy, cx, cy and the distortion
+    /// coefficients, less those held (coefficients in ``fix``, a held principal point, focal
+    /// length or aspect ratio, tangential terms held at zero), as in the command's table.
     #[getter]
     fn parameters(&self) -> usize {
         self.inner.parameters

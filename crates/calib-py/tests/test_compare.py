@@ -52,10 +52,9 @@ def test_models_and_fix_by_name():
     c = calib.compare_models(obj, img, size, models=["brown-conrady5", "kannala-brandt4"],
                              fix=["K3", "principal_point"])
     assert [r.model for r in c.rows] == ["brown-conrady5", "kannala-brandt4"]
-    # k3 held in both models (each its own k3): 9 - 1 and 8 - 1; the count is of the camera
-    # parameters less the held coefficients, as the command's table (a held principal point
-    # still counts).
-    assert [r.parameters for r in c.rows] == [8, 7]
+    # k3 held in both models (each its own k3) and the principal point: 9 - 1 - 2 and
+    # 8 - 1 - 2; the count is of the estimated camera parameters, as the command's table.
+    assert [r.parameters for r in c.rows] == [6, 5]
     assert c.held_fixed == ["k3"]
     assert "held at zero in every model that has them: k3" in str(c)
     assert all(r.cross_validated_rms is not None for r in c.rows)

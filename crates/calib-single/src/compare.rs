@@ -37,8 +37,9 @@ pub const MODELS: [CameraModel; 5] = [
 pub struct ModelRow {
     /// The lens model.
     pub model: CameraModel,
-    /// Number of camera parameters (`fx, fy, cx, cy` and the distortion), less the distortion
-    /// coefficients held fixed.
+    /// Number of camera parameters (`fx, fy, cx, cy` and the distortion) the calibration
+    /// estimates: those held fixed (coefficients by name, the principal point, focal length or
+    /// aspect ratio, tangential terms held at zero) are not counted.
     pub parameters: usize,
     /// RMS on all views (pixels), or `None` if the calibration failed.
     pub rms: Option<f64>,
@@ -155,7 +156,8 @@ pub fn compare_models(
                 return ModelRow::not_fitted(model, e);
             }
             o.distortion_guess = None;
-            let held = o.fixed_distortion.len();
+            let held =
+                calib_core::single::fixed_camera_components(&o, observations.views.len()).len();
             let full = calibrate(observations, &o);
             let cross_validated_rms = (observations.views.len() >= MIN_CROSS_VALIDATION_VIEWS)
                 .then(|| {

@@ -206,3 +206,55 @@ fn too_few_views_to_cross_validate_give_no_recommendation() {
         c.table()
     );
 }
+
+/// The parameter counts are the free ones: a held principal point, focal length or aspect
+/// ratio and tangential terms held at zero are not counted (they counted before, so a table
+/// made with `--fix-principal-point` gave brown-conrady4 8 parameters where 6 were fitted).
+#[test]
+fn held_intrinsics_are_not_counted_as_parameters() {
+    let views = views_of(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(800.0, 800.0, 319.5, 239.5),
+    );
+    let mut options = CalibrationOptions::default();
+    options.fix_principal_point = true;
+    let c = compare_models(
+        &views,
+        &options,
+        &[CameraModel::BrownConrady4, CameraModel::KannalaBrandt4],
+        &[],
+    );
+    assert_eq!(
+        row(&c, CameraModel::BrownConrady4).parameters,
+        6,
+        "{}",
+        c.table()
+    );
+    assert_eq!(
+        row(&c, CameraModel::KannalaBrandt4).parameters,
+        6,
+        "{}",
+        c.table()
+    );
+    options.fix_aspect_ratio = true;
+    options.zero_tangential_distortion = true;
+    let c = compare_models(
+        &views,
+        &options,
+        &[CameraModel::BrownConrady4, CameraModel::BrownConrady5],
+        &[],
+    );
+    // fx, k1, k2 (and k3): fy follows fx, p1 and p2 stay zero.
+    assert_eq!(
+        row(&c, CameraModel::BrownConrady4).parameters,
+        3,
+        "{}",
+        c.table()
+    );
+    assert_eq!(
+        row(&c, CameraModel::BrownConrady5).parameters,
+        4,
+        "{}",
+        c.table()
+    );
+}

@@ -278,8 +278,9 @@ class ModelRow:
     def model(self) -> str: ...
     @property
     def parameters(self) -> int:
-        """Camera parameters (fx, fy, cx, cy and the coefficients) less the coefficients held
-        by ``fix`` (a held principal point still counts, as in the command's table)."""
+        """Camera parameters (fx, fy, cx, cy and the coefficients) the calibration estimates:
+        those held (``fix``, a held principal point, focal length or aspect ratio, zero
+        tangential terms) are not counted, as in the command's table."""
     @property
     def rms(self) -> Optional[float]:
         """RMS on all views, pixels (None if the calibration failed)."""
