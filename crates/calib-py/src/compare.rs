@@ -327,6 +327,21 @@ impl ModelComparison {
         self.inner.held_fixed.clone()
     }
 
+    /// The ``to_json()`` text (or a ``calib single --compare-models -o FILE`` file) as a
+    /// comparison again. Raises ``ValueError`` when the text is not such a comparison.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        let inner = serde_json::from_str(text)
+            .map_err(|e| PyValueError::new_err(format!("text: not a model comparison: {e}")))?;
+        Ok(Self { inner })
+    }
+
+    /// Pickling (and ``copy``) through the JSON form, which holds every number exactly.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let from_json = py.get_type::<Self>().getattr("from_json")?;
+        Ok((from_json, (self.to_json()?,)))
+    }
+
     /// The table ``calib single --compare-models`` prints, with the recommendation.
     fn table(&self) -> String {
         self.inner.table()

@@ -1,7 +1,9 @@
 """compare_models: the numbers, the recommendation and the table of `calib single
 --compare-models`, and clear exceptions for bad input."""
 
+import copy
 import json
+import pickle
 import subprocess
 
 import numpy as np
@@ -59,6 +61,15 @@ def test_models_and_fix_by_name():
     assert "held at zero in every model that has them: k3" in str(c)
     assert all(r.cross_validated_rms is not None for r in c.rows)
     assert c.recommended in {"brown-conrady5", "kannala-brandt4"}
+    # Pickling and copying keep every number (through the JSON form), and the command's file
+    # reads back the same way.
+    for again in [pickle.loads(pickle.dumps(c)), copy.copy(c), copy.deepcopy(c),
+                  calib.ModelComparison.from_json(c.to_json())]:
+        assert again.to_json() == c.to_json()
+        assert again.table() == c.table()
+        assert [r.rms for r in again.rows] == [r.rms for r in c.rows]
+    with pytest.raises(ValueError, match="not a model comparison"):
+        calib.ModelComparison.from_json('{"rows": 3}')
     # A comma-separated string is a list of names.
     assert [r.model for r in calib.compare_models(obj, img, size, models="brown-conrady4").rows] == [
         "brown-conrady4"]

@@ -15,7 +15,7 @@ use crate::observations::Observations;
 use calib_core::warnings::Warning;
 use calib_core::{CalibrationError, CalibrationOptions};
 use camera_model::CameraModel;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 
 /// A model's cross-validated RMS within this fraction of the best counts as equally good (the
@@ -33,7 +33,7 @@ pub const MODELS: [CameraModel; 5] = [
 ];
 
 /// One model's row of the comparison.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelRow {
     /// The lens model.
     pub model: CameraModel,
@@ -53,8 +53,10 @@ pub struct ModelRow {
     pub error: Option<String>,
 }
 
-/// The comparison of lens models on one camera's views.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// The comparison of lens models on one camera's views. Serialized as the file
+/// `calib single --compare-models -o FILE` writes (docs/formats.md), and read back from it with
+/// `serde_json::from_str`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelComparison {
     /// One row per model, in the order given.
     pub rows: Vec<ModelRow>,

@@ -317,6 +317,9 @@ class ModelComparison:
     def table(self) -> str: ...
     def to_json(self) -> str:
         """What ``calib single --compare-models -o FILE`` writes."""
+    @staticmethod
+    def from_json(text: str) -> ModelComparison:
+        """The comparison again from its ``to_json()`` text (pickling and ``copy`` go through it)."""
 
 def calibrate_camera(
     object_points: Iterable[Points],
