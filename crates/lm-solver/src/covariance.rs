@@ -313,13 +313,11 @@ impl Solver {
         });
         for chunk in &self.ne.chunks {
             if chunk.solve_failed {
-                // Find the failing block for the message.
+                // The failing block itself, not the chunk's first: chunks hold many views.
                 let block = chunk
-                    .elim
-                    .clone()
-                    .map(|e| problem.eliminated[e].block)
-                    .next()
-                    .unwrap_or(0);
+                    .failed_eliminated
+                    .or_else(|| chunk.elim.clone().next())
+                    .map_or(0, |e| problem.eliminated[e].block);
                 return Err(CovarianceError::SingularEliminatedBlock { block });
             }
             // A positive but tiny pivot also means an undetermined block. Each squared pivot is

@@ -73,6 +73,9 @@ pub(crate) struct Chunk {
     pub rhs_partial: Vec<f64>,
     /// Set by the linear solver when a damped `V_e` is not positive definite.
     pub solve_failed: bool,
+    /// The eliminated block (index into `Problem::eliminated`) whose damped `V_e` was not
+    /// positive definite, when `solve_failed` is set.
+    pub failed_eliminated: Option<usize>,
 }
 
 /// The linearized problem at one point: cost, gradient and normal-equation blocks.
@@ -188,6 +191,7 @@ impl NormalEquations {
                     s_partial: Vec::new(),
                     rhs_partial: Vec::new(),
                     solve_failed: false,
+                    failed_eliminated: None,
                 }
             })
             .collect();

@@ -42,7 +42,8 @@ pub(crate) fn prepare_chunks(ne: &mut NormalEquations, dense_reduced_dim: Option
 /// With `dense_partial`, also accumulates `-Y_e Y_e^T` (upper triangle) and `Y_e z_e` into the
 /// chunk's dense partial Schur complement and right-hand side (reduced layout, `n x n`).
 ///
-/// Sets `chunk.solve_failed` if some damped `V_e` is not positive definite.
+/// Sets `chunk.solve_failed` (and `chunk.failed_eliminated` to the first such block) if some
+/// damped `V_e` is not positive definite.
 pub(crate) fn eliminate_chunk(
     problem: &Problem,
     chunk: &mut Chunk,
@@ -50,6 +51,7 @@ pub(crate) fn eliminate_chunk(
     dense_partial: bool,
 ) {
     chunk.solve_failed = false;
+    chunk.failed_eliminated = None;
     if dense_partial {
         chunk.s_partial.fill(0.0);
         chunk.rhs_partial.fill(0.0);
@@ -65,6 +67,7 @@ pub(crate) fn eliminate_chunk(
         };
         if !factorized {
             chunk.solve_failed = true;
+            chunk.failed_eliminated = Some(e);
             return;
         }
     }

@@ -493,6 +493,43 @@ fn unfixed_gauge_is_reported_as_rank_deficient() {
     }
 }
 
+/// An undetermined eliminated block that is not the first of its chunk is named itself: the
+/// message of a calibration names this view, not the first view of its chunk of ~100.
+#[test]
+fn a_singular_eliminated_block_is_named_itself() {
+    let ba = BearingAdjustment::generate(5, 10, 1e-3, 4);
+    let unseen = 6;
+    let mut builder = ProblemBuilder::new();
+    let mut blocks: Vec<_> = ba
+        .cameras
+        .iter()
+        .map(|_| builder.add_parameter_block(3))
+        .collect();
+    for _ in &ba.landmarks {
+        let id = builder.add_parameter_block(2);
+        builder.set_eliminated(id, true);
+        blocks.push(id);
+    }
+    builder.set_constant(blocks[0], true);
+    builder.set_fixed_components(blocks[1], &[0]);
+    let nc = ba.cameras.len();
+    // Landmark `unseen` is observed by one camera only: one bearing does not locate it.
+    for &(c, l, _) in &ba.observations {
+        if l != unseen || c == 2 {
+            builder.add_residual_block(1, &[blocks[c], blocks[nc + l]]);
+        }
+    }
+    let problem = builder.build().unwrap();
+    let mut solver = Solver::new(problem, SolverOptions::default()).unwrap();
+    assert_eq!(solver.num_chunks(), 1, "all landmarks in one chunk");
+    match solver.covariance(&ba, &ba.truth()) {
+        Err(CovarianceError::SingularEliminatedBlock { block }) => {
+            assert_eq!(block, blocks[nc + unseen].0);
+        }
+        other => panic!("expected a singular eliminated block, got {other:?}"),
+    }
+}
+
 #[test]
 fn pose_graph_recovers_truth_and_solves_noisy_graphs() {
     let graph = PoseGraph::generate(30, 10, 0.0, 8);
