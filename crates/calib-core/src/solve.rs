@@ -21,6 +21,7 @@ use lm_solver::{
 };
 use nalgebra::{DMatrix, Vector2, Vector3, Vector6};
 use std::sync::Arc;
+use std::time::Duration;
 
 /// How to solve a [`JointProblem`].
 #[derive(Debug, Clone, PartialEq)]
@@ -110,6 +111,10 @@ pub struct JointSolution {
     pub outlier_rounds: usize,
     /// Iterations over all solves (equal to `report.iterations.len()` without re-solves).
     pub total_iterations: usize,
+    /// Levenberg-Marquardt time over all solves (`report.total_time` without re-solves): the
+    /// results' `optimization` stage, which must not leave the solves before the last outlier
+    /// round to the `uncertainty` stage.
+    pub optimization_time: Duration,
     /// The cost (half the weighted sum of squared errors, px^2) at the start of the first
     /// solve.
     pub initial_cost: f64,
@@ -247,12 +252,14 @@ pub fn solve(
         if let Ok(second) = every_point() {
             let thresholds = outliers::thresholds(&solution, &rejection);
             let total_iterations = solution.total_iterations + second.total_iterations;
+            let optimization_time = solution.optimization_time + second.optimization_time;
             if truncated_cost(problem, &second, &thresholds)
                 < truncated_cost(problem, &solution, &thresholds)
             {
                 solution = second;
             }
             solution.total_iterations = total_iterations;
+            solution.optimization_time = optimization_time;
         }
     }
     add_solver_warnings(&mut solution);
@@ -275,6 +282,7 @@ fn reject_and_solve(
     let floor = Some(rejection.min_threshold_px);
     let mut warm: Option<JointProblem> = None;
     let mut total_iterations = 0;
+    let mut optimization_time = Duration::ZERO;
     let mut initial_cost = None;
     let mut rounds = 0;
     loop {
@@ -287,6 +295,7 @@ fn reject_and_solve(
             solve_once(base, options, problem, floor)?
         };
         total_iterations += solution.report.iterations.len();
+        optimization_time += solution.report.total_time;
         let first_cost = *initial_cost.get_or_insert(solution.report.initial_cost);
         let marked = outliers::mark(problem, &solution, rejection);
         if marked == rejected || rounds == rejection.max_rounds {
@@ -297,6 +306,7 @@ fn reject_and_solve(
             solution.rejected = rejected;
             solution.outlier_rounds = rounds;
             solution.total_iterations = total_iterations;
+            solution.optimization_time = optimization_time;
             solution.initial_cost = first_cost;
             return Ok(solution);
         }
@@ -1014,6 +1024,7 @@ fn solve_with<R: RotationParameterization>(
         errors.push(s);
     }
     let initial_cost = report.initial_cost;
+    let optimization_time = report.total_time;
     let solution = JointSolution {
         cameras,
         camera_std,
@@ -1031,6 +1042,7 @@ fn solve_with<R: RotationParameterization>(
         rejected: vec![Vec::new(); problem.observations.len()],
         outlier_rounds: 0,
         total_iterations: 0,
+        optimization_time,
         initial_cost,
         warnings: Vec::new(),
         noise_sample,

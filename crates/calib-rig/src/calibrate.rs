@@ -773,7 +773,7 @@ fn assemble(
             views: std::mem::take(&mut views[k]),
         })
         .collect();
-    let optimization = solution.report.total_time;
+    let optimization = solution.optimization_time;
     RigCalibration {
         cameras,
         reference: options.reference,

@@ -82,7 +82,7 @@ pub fn calibrate(
     let sample_std = |s: f64, ss: f64| ((ss - s * s / np) / (np - 1.0).max(1.0)).max(0.0).sqrt();
     let (sum, sum_sq) = (total.sum, total.sum_sq_xy);
     let (homographies, initialization) = prepared.times;
-    let optimization = solution.report.total_time;
+    let optimization = solution.optimization_time;
     let calibration = Calibration {
         camera: solution.cameras[0].clone(),
         intrinsics_std: [std[0], std[1], std[2], std[3]],

@@ -599,7 +599,7 @@ fn assemble(
     for e in &solution.errors {
         total.add(e);
     }
-    let joint = solution.report.total_time;
+    let joint = solution.optimization_time;
     Ok(StereoCalibration {
         left,
         right,
