@@ -312,6 +312,9 @@ fn reject_and_solve(
         }
         rejected = marked;
         rounds += 1;
+        if options.compute_uncertainty {
+            check_frames_keep_points(problem, &rejected)?;
+        }
         warm = Some(problem.with_solution(&solution));
     }
 }
@@ -355,6 +358,40 @@ fn locate(problem: &JointProblem, o: usize) -> String {
         format!("{frame}, camera '{}'", problem.cameras[obs.camera].name)
     } else {
         frame.clone()
+    }
+}
+
+/// A board pose seen by fewer points than this cannot be solved for (six parameters).
+const MIN_POSE_POINTS: usize = 3;
+
+/// Before a re-solve with uncertainties: a frame whose points the marking left fewer than
+/// [`MIN_POSE_POINTS`] (every point of a view that fits no pose, as a sheared board's) has an
+/// undetermined pose, and the solve's covariance would stop on it with
+/// [`CalibrationError::NotDetermined`], which `skip_bad_views` cannot act on. Such a view is
+/// wrong as a whole: [`CalibrationError::MostlyOutliers`]. (Without uncertainties the damped
+/// solve goes on and the points may come back in the next round, as before.)
+fn check_frames_keep_points(
+    problem: &JointProblem,
+    rejected: &[Vec<usize>],
+) -> Result<(), CalibrationError> {
+    let mut kept = vec![0usize; problem.frames.len()];
+    for (o, r) in rejected.iter().enumerate() {
+        let obs = &problem.observations[o];
+        kept[obs.frame] += obs.num_used_points().saturating_sub(r.len());
+    }
+    let worst = rejected
+        .iter()
+        .enumerate()
+        .filter(|&(o, r)| !r.is_empty() && kept[problem.observations[o].frame] < MIN_POSE_POINTS)
+        .max_by_key(|&(o, r)| (r.len(), std::cmp::Reverse(o)));
+    match worst {
+        Some((o, r)) => Err(CalibrationError::MostlyOutliers {
+            observation: o,
+            location: locate(problem, o),
+            rejected: r.len(),
+            points: problem.observations[o].num_used_points(),
+        }),
+        None => Ok(()),
     }
 }
 

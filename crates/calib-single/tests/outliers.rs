@@ -273,6 +273,41 @@ fn a_view_from_another_lens_is_named_or_skipped() {
     assert!((params(&result)[0] - truth[0]).abs() < 4.0 * result.intrinsics_std[0]);
 }
 
+/// A view detected with the wrong board size (an 8x6 board's points for the first 48 corners
+/// of a 9x6 board): two thirds of its points fit a sheared board, a homography, so it passes the
+/// homography stage, but no pose fits them and every point is marked. It is `MostlyOutliers`,
+/// named, and skipped with `skip_bad_views`, not an undetermined pose that stops the calibration.
+#[test]
+fn a_view_with_the_wrong_board_size_is_named_or_skipped() {
+    let config = SyntheticConfig::default();
+    let set = generate(&config).unwrap();
+    let mut obs = set.observations.clone();
+    let view = &mut obs.views[7];
+    view.image_points.truncate(48);
+    view.object_points = (0..48)
+        .map(|i| nalgebra::Point3::new(25.0 * (i % 8) as f64, 25.0 * (i / 8) as f64, 0.0))
+        .collect();
+    match calibrate(&obs, &CalibrationOptions::default()) {
+        Err(e @ CalibrationError::MostlyOutliers { .. }) => {
+            assert!(e.to_string().starts_with("view 7"), "{e}");
+        }
+        Ok(r) => panic!("accepted: rms {} rejected {}", r.rms, r.num_rejected),
+        Err(e) => panic!("{e}"),
+    }
+    let mut skip = CalibrationOptions::default();
+    skip.skip_bad_views = true;
+    let result = calibrate(&obs, &skip).unwrap();
+    assert_eq!(
+        result
+            .skipped_views
+            .iter()
+            .map(|s| s.index)
+            .collect::<Vec<_>>(),
+        vec![7]
+    );
+    assert_eq!(result.num_rejected, 0);
+}
+
 /// Strong barrel distortion: the homography of a board filling the image leaves tens of pixels
 /// at its edges, and the robust homography may suspect them; the calibrated model fits them, so
 /// none stays rejected.
