@@ -7,7 +7,7 @@
 //! parameter names.
 
 use crate::cost::{JointCost, residual_layouts};
-use crate::error::CalibrationError;
+use crate::error::{CalibrationError, OutlierView};
 use crate::outliers::{self, OutlierRejection};
 use crate::problem::{BoardNormalization, JointProblem};
 use crate::warnings::{Warning, WarningCode};
@@ -379,19 +379,50 @@ fn check_frames_keep_points(
         let obs = &problem.observations[o];
         kept[obs.frame] += obs.num_used_points().saturating_sub(r.len());
     }
+    let emptied = |(o, r): &(usize, &Vec<usize>)| {
+        !r.is_empty() && kept[problem.observations[*o].frame] < MIN_POSE_POINTS
+    };
     let worst = rejected
         .iter()
         .enumerate()
-        .filter(|&(o, r)| !r.is_empty() && kept[problem.observations[o].frame] < MIN_POSE_POINTS)
+        .filter(emptied)
         .max_by_key(|&(o, r)| (r.len(), std::cmp::Reverse(o)));
     match worst {
-        Some((o, r)) => Err(CalibrationError::MostlyOutliers {
-            observation: o,
-            location: locate(problem, o),
-            rejected: r.len(),
-            points: problem.observations[o].num_used_points(),
-        }),
+        Some((o, _)) => {
+            let also: Vec<usize> = rejected
+                .iter()
+                .enumerate()
+                .filter(emptied)
+                .map(|(other, _)| other)
+                .filter(|&other| other != o)
+                .collect();
+            Err(mostly_outliers(problem, rejected, o, &also))
+        }
         None => Ok(()),
+    }
+}
+
+/// [`CalibrationError::MostlyOutliers`] naming observation `o`, with the views `also` past the
+/// same limit.
+fn mostly_outliers(
+    problem: &JointProblem,
+    rejected: &[Vec<usize>],
+    o: usize,
+    also: &[usize],
+) -> CalibrationError {
+    let view = |o: usize| OutlierView {
+        observation: o,
+        location: locate(problem, o),
+        rejected: rejected[o].len(),
+        points: problem.observations[o].num_used_points(),
+    };
+    let named = view(o);
+    CalibrationError::MostlyOutliers {
+        observation: o,
+        location: named.location,
+        rejected: named.rejected,
+        points: named.points,
+        also: also.iter().map(|&a| view(a)).collect(),
     }
 }
 
@@ -400,19 +431,19 @@ fn check_view_fractions(
     rejected: &[Vec<usize>],
     options: &OutlierRejection,
 ) -> Result<(), CalibrationError> {
-    for (o, r) in rejected.iter().enumerate() {
-        let points = problem.observations[o].num_used_points();
-        let count = r.len();
-        if count as f64 > options.max_view_fraction * points as f64 {
-            return Err(CalibrationError::MostlyOutliers {
-                observation: o,
-                location: locate(problem, o),
-                rejected: count,
-                points,
-            });
-        }
+    let past: Vec<usize> = rejected
+        .iter()
+        .enumerate()
+        .filter(|(o, r)| {
+            r.len() as f64
+                > options.max_view_fraction * problem.observations[*o].num_used_points() as f64
+        })
+        .map(|(o, _)| o)
+        .collect();
+    match past.split_first() {
+        Some((&o, also)) => Err(mostly_outliers(problem, rejected, o, also)),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 fn add_solver_warnings(solution: &mut JointSolution) {

@@ -40,17 +40,24 @@ pub fn calibrate(
         let solve_start = Instant::now();
         match calib_core::solve(&problem, &prepared.solve_options(&options.solve_options())) {
             Ok(solution) => break (prepared, solution, solve_start.elapsed()),
-            // A view whose points mostly miss the model is wrong as a whole: drop it and start
-            // again without it.
-            Err(e @ CalibrationError::MostlyOutliers { observation, .. })
-                if options.skip_bad_views =>
-            {
-                let (index, name) = prepared.views[observation].clone();
-                dropped.push(SkippedView {
-                    index,
-                    name,
-                    reason: e.to_string(),
-                });
+            // A view whose points mostly miss the model is wrong as a whole: drop it (and
+            // others of its round, `views_to_skip`) and start again without it.
+            Err(e @ CalibrationError::MostlyOutliers { .. }) if options.skip_bad_views => {
+                let CalibrationError::MostlyOutliers { ref also, .. } = e else {
+                    unreachable!("matched just above")
+                };
+                for observation in e.views_to_skip(prepared.views.len()) {
+                    let (index, name) = prepared.views[observation].clone();
+                    let reason = also
+                        .iter()
+                        .find(|v| v.observation == observation)
+                        .map_or_else(|| e.to_string(), |v| v.to_string());
+                    dropped.push(SkippedView {
+                        index,
+                        name,
+                        reason,
+                    });
+                }
             }
             Err(e) => return Err(e),
         }

@@ -41,7 +41,8 @@ pub mod result;
 pub mod synthetic;
 
 pub use calib_core::{
-    CalibrationError, CalibrationOptions, FocalInit, JsonFile, PointKind, default_solver_options,
+    CalibrationError, CalibrationOptions, FocalInit, JsonFile, OutlierView, PointKind,
+    default_solver_options,
 };
 pub use calib_core::{error, init, options};
 pub use calibrate::{calibrate, reproject};

@@ -52,15 +52,16 @@ pub fn calibrate_stereo(
             }
             Err(PairsFailure::Error(error)) => return Err(error),
             // Whole pairs that are wrong: with `skip_bad_pairs`, drop them and start again.
-            Err(PairsFailure::BadPairs(error, positions)) => {
+            Err(PairsFailure::BadPairs(error, bad)) => {
+                let positions: Vec<usize> = bad.iter().map(|(k, _)| *k).collect();
                 if !options.skip_bad_pairs || positions.len() >= kept.len() {
                     return Err(error);
                 }
                 let reason = error.to_string();
-                for &k in &positions {
+                for (k, own) in bad {
                     skipped.push(SkippedPair {
                         index: kept[k],
-                        reason: reason.clone(),
+                        reason: own.unwrap_or_else(|| reason.clone()),
                     });
                 }
                 remove_positions(&mut kept, &positions);
@@ -103,8 +104,9 @@ fn remove_positions(kept: &mut Vec<usize>, positions: &[usize]) {
 enum PairsFailure {
     /// A failure of the whole calibration.
     Error(StereoError),
-    /// The pairs at these positions of `kept` are wrong (skippable).
-    BadPairs(StereoError, Vec<usize>),
+    /// The pairs at these positions of `kept` are wrong (skippable), each with its own reason
+    /// where the error does not describe it (`None`: the error's message).
+    BadPairs(StereoError, Vec<(usize, Option<String>)>),
     /// Pairs (positions `(copy, original)`) repeating earlier ones: left out with a warning.
     Duplicates(Vec<(usize, usize)>),
 }
@@ -116,15 +118,36 @@ impl From<StereoError> for PairsFailure {
 }
 
 /// The pair-level reading of an engine error: a view that mostly misses the model makes its
-/// pair bad (the observation index divided by the observations per pair is its position).
+/// pair bad (the observation index divided by the observations per pair is its position), and so
+/// do the other views of its round that [`CalibrationError::views_to_skip`] leaves out with it.
 fn engine_failure(
     error: CalibrationError,
     observations_per_pair: usize,
-    wrap: impl FnOnce(CalibrationError) -> StereoError,
+    num_pairs: usize,
+    wrap: impl Fn(CalibrationError) -> StereoError,
 ) -> PairsFailure {
+    let views = error.views_to_skip(num_pairs * observations_per_pair);
     match error {
-        CalibrationError::MostlyOutliers { observation, .. } => {
-            PairsFailure::BadPairs(wrap(error), vec![observation / observations_per_pair])
+        CalibrationError::MostlyOutliers {
+            observation,
+            ref also,
+            ..
+        } => {
+            let mut bad = vec![(observation / observations_per_pair, None)];
+            for view in also.iter().filter(|v| views.contains(&v.observation)) {
+                let k = view.observation / observations_per_pair;
+                if bad.iter().all(|(b, _)| *b != k) {
+                    let own = wrap(CalibrationError::MostlyOutliers {
+                        observation: view.observation,
+                        location: view.location.clone(),
+                        rejected: view.rejected,
+                        points: view.points,
+                        also: Vec::new(),
+                    });
+                    bad.push((k, Some(own.to_string())));
+                }
+            }
+            PairsFailure::BadPairs(wrap(error), bad)
         }
         other => PairsFailure::Error(wrap(other)),
     }
@@ -183,7 +206,7 @@ fn calibrate_pairs(
         let pairs = identical.iter().map(|&k| kept[k]).collect();
         return Err(PairsFailure::BadPairs(
             StereoError::IdenticalViews { pairs },
-            identical,
+            identical.into_iter().map(|k| (k, None)).collect(),
         ));
     }
     let duplicates = {
@@ -213,7 +236,7 @@ fn calibrate_pairs(
         let (spec, solution) = prepared
             .solve_for_start(&side.to_string(), &solve)
             .map_err(|e| {
-                engine_failure(e, 1, |source| StereoError::Camera {
+                engine_failure(e, 1, kept.len(), |source| StereoError::Camera {
                     camera: side,
                     source,
                 })
@@ -238,7 +261,7 @@ fn calibrate_pairs(
             .collect();
         return Err(PairsFailure::BadPairs(
             StereoError::MismatchedPairs { pairs },
-            mismatched,
+            mismatched.into_iter().map(|k| (k, None)).collect(),
         ));
     }
 
@@ -300,8 +323,8 @@ fn calibrate_pairs(
     solve.solver = options.solver.clone();
     solve.loss = options.loss;
     solve.outliers = options.outliers;
-    let solution =
-        calib_core::solve(&problem, &solve).map_err(|e| engine_failure(e, 2, joint_error))?;
+    let solution = calib_core::solve(&problem, &solve)
+        .map_err(|e| engine_failure(e, 2, kept.len(), joint_error))?;
     let joint_done = Instant::now();
     let mut result = assemble(
         observations,
