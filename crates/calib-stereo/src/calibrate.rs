@@ -250,10 +250,18 @@ fn calibrate_pairs(
 
     // Every pair must see the same rig: a pair whose right corners are numbered differently
     // from its left ones, or whose views are from different moments, disagrees.
-    let disagreements = rig_rotation_disagreements(&left_single.frames, &right_single.frames);
-    let mismatched: Vec<usize> = (0..disagreements.len())
+    let mut disagreements = rig_rotation_disagreements(&left_single.frames, &right_single.frames);
+    let mut mismatched: Vec<usize> = (0..disagreements.len())
         .filter(|&k| disagreements[k].to_degrees() > MAX_RIG_DISAGREEMENT_DEG)
         .collect();
+    // Two pairs that disagree: the medoid is either one, so the wrong pair cannot be told (the
+    // first would stand as the reference, at 0 degrees, and the second be blamed): name both,
+    // each with the angle between them.
+    if kept.len() == 2 && !mismatched.is_empty() {
+        mismatched = vec![0, 1];
+        let between = disagreements[0].max(disagreements[1]);
+        disagreements = vec![between; 2];
+    }
     if !mismatched.is_empty() {
         let pairs = mismatched
             .iter()

@@ -98,3 +98,27 @@ fn a_tiny_baseline_gets_a_warning() {
     let result = calibrate_stereo(&normal.observations, &StereoOptions::default()).unwrap();
     assert!(result.warnings.is_empty(), "{:?}", result.warnings);
 }
+
+#[test]
+fn two_disagreeing_pairs_are_both_named() {
+    // With two pairs the medoid is either one: the pair that is wrong cannot be told, so both
+    // are named (the message used to blame pair 1 when pair 0 was reversed), and skipping bad
+    // pairs cannot choose one.
+    let set = generate_stereo(&SyntheticStereoConfig::default()).unwrap();
+    let mut obs = set.observations.clone();
+    obs.pairs.truncate(2);
+    obs.pairs[0].right.image_points.reverse();
+    match calibrate_stereo(&obs, &StereoOptions::default()) {
+        Err(StereoError::MismatchedPairs { pairs }) => {
+            let which: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+            assert_eq!(which, vec![0, 1]);
+            // Each with the angle between the two (not 0 for the one taken as reference).
+            assert!(pairs.iter().all(|p| p.1 > 90.0), "{pairs:?}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut skip = StereoOptions::default();
+    skip.skip_bad_pairs = true;
+    let err = calibrate_stereo(&obs, &skip).unwrap_err();
+    assert!(matches!(err, StereoError::MismatchedPairs { .. }), "{err}");
+}
