@@ -273,6 +273,18 @@ fn calibrate_pairs(
         ));
     }
 
+    // One pair cannot be checked against another: a right view whose corners are numbered the
+    // other way round turns the rig 180 degrees without a trace.
+    let mut unchecked = Vec::new();
+    if let [only] = kept {
+        unchecked.push(Warning::new(
+            WarningCode::PoorlyDetermined,
+            format!(
+                "the rig rests on one pair (pair {only}): it cannot be checked against another pair (a right view whose corners are numbered the other way round from the left's would turn it 180 degrees without a trace) and both principal points are held at the image centres (or the guesses); add pairs with the board in other poses"
+            ),
+        ));
+    }
+
     let rig0 = match options.rig_guess {
         Some(rig) => rig,
         None => initial_rig(options.rig_init, &left_single.frames, &right_single.frames)
@@ -347,6 +359,7 @@ fn calibrate_pairs(
         ],
     )?;
     result.initial_methods = [left_method, right_method];
+    result.warnings.append(&mut unchecked);
     // The distance to the board itself (its points' centroid), not to its origin, which may lie
     // anywhere in the board's plane.
     let centre = calib_core::problem::BoardNormalization::measure(

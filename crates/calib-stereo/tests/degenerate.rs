@@ -100,6 +100,27 @@ fn a_tiny_baseline_gets_a_warning() {
 }
 
 #[test]
+fn one_pair_is_flagged_as_unchecked() {
+    // One pair cannot be checked against another: with its right corners reversed it gives a
+    // rig turned 180 degrees and, before this warning, no word about it.
+    let set = generate_stereo(&SyntheticStereoConfig::default()).unwrap();
+    for reversed in [false, true] {
+        let mut obs = set.observations.clone();
+        obs.pairs.truncate(1);
+        if reversed {
+            obs.pairs[0].right.image_points.reverse();
+        }
+        let result = calibrate_stereo(&obs, &StereoOptions::default()).unwrap();
+        let w = result
+            .warnings
+            .iter()
+            .find(|w| w.code == WarningCode::PoorlyDetermined && w.message.contains("one pair"))
+            .unwrap_or_else(|| panic!("{:?}", result.warnings));
+        assert!(w.message.contains("pair 0"), "{}", w.message);
+    }
+}
+
+#[test]
 fn two_disagreeing_pairs_are_both_named() {
     // With two pairs the medoid is either one: the pair that is wrong cannot be told, so both
     // are named (the message used to blame pair 1 when pair 0 was reversed), and skipping bad
