@@ -11,12 +11,15 @@
 //!   rostopic: /cam0/image_raw
 //! cam1:
 //!   T_cn_cnm1:
-//!   - [r11, r12, r13, t1]
-//!   - [r21, r22, r23, t2]
-//!   - [r31, r32, r33, t3]
-//!   - [0.0, 0.0, 0.0, 1.0]
+//!     - [r11, r12, r13, t1]
+//!     - [r21, r22, r23, t2]
+//!     - [r31, r32, r33, t3]
+//!     - [0.0, 0.0, 0.0, 1.0]
 //!   ...
 //! ```
+//!
+//! The rows of `T_cn_cnm1` are indented below their key (Kalibr's own files put them at its
+//! level, which YAML allows but OpenCV's `FileStorage` refuses): the file reads in both.
 //!
 //! `T_cn_cnm1` maps camera `n-1`'s frame to camera `n`'s: for a stereo rig it is `[R | T]`
 //! (`X_right = R X_left + T`), `T` in board units times the export's translation scale (Kalibr
@@ -89,11 +92,11 @@ fn camera_block(
         for i in 0..3 {
             let _ = writeln!(
                 out,
-                "  - {}",
+                "    - {}",
                 yaml::list(&[r[(i, 0)], r[(i, 1)], r[(i, 2)], t[i]])
             );
         }
-        let _ = writeln!(out, "  - [0.0, 0.0, 0.0, 1.0]");
+        let _ = writeln!(out, "    - [0.0, 0.0, 0.0, 1.0]");
     }
     let overlaps: Vec<String> = overlaps.iter().map(usize::to_string).collect();
     let _ = writeln!(out, "  cam_overlaps: [{}]", overlaps.join(", "));

@@ -219,6 +219,33 @@ fn translation_scale_converts_units_for_kalibr_and_ros() {
     assert!(ExportOptions::new(Some(1.5), 1.0).is_err());
 }
 
+/// OpenCV's FileStorage YAML reader refuses a block sequence written at its key's indentation
+/// ("Incorrect indentation"), which plain YAML allows: every sequence item of an export is
+/// indented deeper than its key, so `cv2.FileStorage` reads the Kalibr camchain too.
+#[test]
+fn sequence_items_are_indented_below_their_key_for_opencv_filestorage() {
+    let r = rig(CameraModel::BrownConrady4, CameraModel::KannalaBrandt4);
+    for format in [Format::OpenCv, Format::Ros, Format::Kalibr] {
+        for text in export_texts(
+            &Calibrated::Stereo(r.clone()),
+            format,
+            &ExportOptions::default(),
+        )
+        .unwrap()
+        {
+            let indent = |line: &str| line.len() - line.trim_start().len();
+            let mut key_indent = 0;
+            for line in text.lines() {
+                if line.trim_start().starts_with("- ") {
+                    assert!(indent(line) > key_indent, "{format:?}: {line:?}\n{text}");
+                } else if line.trim_end().ends_with(':') {
+                    key_indent = indent(line);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn ros_stereo_writes_one_file_per_camera_and_files_are_replaced_atomically() {
     let dir = std::env::temp_dir().join(format!("calib-export-formats-{}", std::process::id()));
