@@ -4,7 +4,7 @@
 //! Per camera:
 //!
 //! * `residuals-CAM.svg`: each observed corner's reprojection error as an arrow (scaled),
-//!   outliers (rejected points) in red;
+//!   outliers (rejected points) in red; above 20000 used corners every k-th (said in the caption);
 //! * `mean-residuals-CAM.svg`: the mean error of the used corners per cell of the image, as
 //!   arrows (systematic patterns the per-corner arrows hide in their noise);
 //! * `scatter-CAM.svg`: the errors `(dx, dy)` as a scatter, outliers in red;
@@ -746,6 +746,21 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
+/// Most used corners the per-corner plots (arrows, scatter) draw; beyond, every k-th.
+const MAX_DRAWN_POINTS: usize = 20_000;
+
+/// "2nd", "3rd", "11th", ...
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
+}
+
 fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
     let size = camera.image_size;
     let chart = chart_size(size);
@@ -760,6 +775,20 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
         // the largest: one gross error would shrink every other arrow to a dot).
         let typical = percentile(&inlier_norms, 0.95).max(1e-6);
         let scale = 0.03 * size.width as f64 / typical;
+        // Every `stride`-th used corner is drawn: a million arrows made a 75 MB file that no
+        // browser shows; the statistics above and the mean-error plot use them all.
+        let stride = inlier_norms.len().div_ceil(MAX_DRAWN_POINTS).max(1);
+        let drawn: Vec<&&Residual> = all.iter().filter(|r| !r.2).step_by(stride).collect();
+        let thinned = if stride > 1 {
+            format!(
+                " For a readable file every {} corner of the {} used ones is drawn ({}); the rejected ones all are.",
+                ordinal(stride),
+                inlier_norms.len(),
+                drawn.len()
+            )
+        } else {
+            String::new()
+        };
         let text = svg(
             |root| {
                 let mut c = image_chart(
@@ -769,15 +798,15 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
                         "reprojection errors x{scale:.0}, 95% under {typical:.2} px (red: rejected)"
                     ),
                 )?;
-                c.draw_series(all.iter().filter(|r| !r.2).map(|(m, e, _)| {
+                c.draw_series(drawn.iter().map(|(m, e, _)| {
                     PathElement::new(
                         vec![(m.x, m.y), (m.x + scale * e.x, m.y + scale * e.y)],
                         BLUE.stroke_width(1),
                     )
                 }))?;
                 c.draw_series(
-                    all.iter()
-                        .filter(|r| !r.2)
+                    drawn
+                        .iter()
                         .map(|(m, _, _)| Circle::new((m.x, m.y), 1, BLUE.filled())),
                 )?;
                 c.draw_series(
@@ -789,7 +818,7 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
             },
             chart,
         )?;
-        plots.push((Plot { file: format!("residuals-{name}.svg"), title: "Reprojection errors over the image".into(), caption: format!("Each observed corner with its error (projected minus measured) as an arrow, magnified {scale:.0} times (an arrow {:.0} px long is {typical:.2} px, the error 95% of the used corners stay under); rejected outliers as red crosses. Errors should look random; arrows that line up (all outward at the edges, swirling) mean the lens model misses something: the mean-error plot below shows such patterns without the noise.", 0.03 * size.width as f64) }, text));
+        plots.push((Plot { file: format!("residuals-{name}.svg"), title: "Reprojection errors over the image".into(), caption: format!("Each observed corner with its error (projected minus measured) as an arrow, magnified {scale:.0} times (an arrow {:.0} px long is {typical:.2} px, the error 95% of the used corners stay under); rejected outliers as red crosses. Errors should look random; arrows that line up (all outward at the edges, swirling) mean the lens model misses something: the mean-error plot below shows such patterns without the noise.{thinned}", 0.03 * size.width as f64) }, text));
         // Axes from the used corners: rejected ones far outside are drawn at the border.
         let lim = all
             .iter()
@@ -819,8 +848,8 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
                     .y_desc("dy (px), down as in the image")
                     .draw()?;
                 c.draw_series(
-                    all.iter()
-                        .filter(|r| !r.2)
+                    drawn
+                        .iter()
                         .map(|(_, e, _)| Circle::new(clamp(e), 2, BLUE.mix(0.5).filled())),
                 )?;
                 c.draw_series(
@@ -832,7 +861,7 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
             },
             (520, 520),
         )?;
-        plots.push((Plot { file: format!("scatter-{name}.svg"), title: "Error scatter".into(), caption: format!("Every point's error (dx, dy; dy down, as in the image). A round cloud centred at zero is good; an elongated or offset cloud, or several clusters, point to a model or data problem. The axes span the used corners; {beyond} rejected corner{} beyond them {} drawn on the border.", if beyond == 1 { "" } else { "s" }, if beyond == 1 { "is" } else { "are" }) }, text));
+        plots.push((Plot { file: format!("scatter-{name}.svg"), title: "Error scatter".into(), caption: format!("Every point's error (dx, dy; dy down, as in the image). A round cloud centred at zero is good; an elongated or offset cloud, or several clusters, point to a model or data problem. The axes span the used corners; {beyond} rejected corner{} beyond them {} drawn on the border.{thinned}", if beyond == 1 { "" } else { "s" }, if beyond == 1 { "is" } else { "are" }) }, text));
         plots.push(mean_residuals_plot(camera, &all, typical, name)?);
         // Coverage: counts per cell of about 1/16 of the width.
         let cell = (size.width.max(size.height) as f64 / 16.0).max(1.0);

@@ -484,3 +484,74 @@ fn reports_in_one_folder_never_mix() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Many corners: the per-corner plots (arrows, scatter) draw at most 20000 of them, every k-th,
+/// and say so; 1000 views of 400 points made a 75 MB residual plot that no browser shows.
+#[test]
+fn per_corner_plots_are_thinned_for_many_corners() {
+    use calib_export::report::{ReportCamera, ReportView};
+    use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
+    let dir = std::env::temp_dir().join(format!("calib-export-thinned-{}", std::process::id()));
+    let camera = AnyCamera::new(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+        vec![-0.1, 0.0, 0.0, 0.0],
+    )
+    .unwrap();
+    let pose = Pose::new(
+        nalgebra::Matrix3::identity(),
+        nalgebra::Vector3::new(-100.0, -75.0, 300.0),
+    );
+    // 60 views of a 20x20 board (24000 corners), each pixel 0.1 px off its projection.
+    let board: Vec<nalgebra::Point3<f64>> = (0..400)
+        .map(|i| nalgebra::Point3::new(10.0 * (i % 20) as f64, 8.0 * (i / 20) as f64, 0.0))
+        .collect();
+    let pixels: Vec<nalgebra::Vector2<f64>> = board
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let s = pose.transform_point(p);
+            let px = camera.project_camera_point(&s).unwrap();
+            let angle = i as f64;
+            nalgebra::Vector2::new(px.x + 0.1 * angle.cos(), px.y + 0.1 * angle.sin())
+        })
+        .collect();
+    let views = (0..60)
+        .map(|k| ReportView {
+            name: format!("view{k}"),
+            pose,
+            rms: 0.1,
+            points: Some((board.clone(), pixels.clone())),
+            rejected: Vec::new(),
+        })
+        .collect();
+    let input = ReportInput {
+        title: "many corners".into(),
+        summary: String::new(),
+        warnings: Vec::new(),
+        cameras: vec![ReportCamera {
+            name: "camera".into(),
+            camera,
+            image_size: calib_core::ImageSize::new(640, 480),
+            fixed: Vec::new(),
+            views,
+        }],
+        layout: None,
+    };
+    write_report(&input, &dir).unwrap();
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    assert!(
+        page.contains("every 2nd corner of the 24000 used ones is drawn (12000)"),
+        "{page}"
+    );
+    for plot in ["residuals-camera.svg", "scatter-camera.svg"] {
+        let svg = std::fs::read_to_string(dir.join(plot)).unwrap();
+        well_formed_svg(&svg).unwrap();
+        let circles = svg.matches("<circle").count();
+        assert!(
+            (12000..12100).contains(&circles),
+            "{plot}: {circles} circles"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
