@@ -107,6 +107,23 @@ pub enum CalibrationError {
         /// The offending Z.
         z: f64,
     },
+    /// A view's board points span a million times more than the median view's, or lie that far
+    /// from the other views' board: a corrupt coordinate or a view in other units. (Left in, its
+    /// numbers overflowed the board's centring and the error named another view.)
+    #[error(
+        "view {view}: its board points span {extent:.3e} board units and lie {distance:.3e} from the centre of the other views' board, which spans {typical:.3e}: a corrupt coordinate or a view in other units; fix or remove it, or skip bad views"
+    )]
+    BoardOutOfScale {
+        /// View index.
+        view: usize,
+        /// Largest coordinate range of the view's board points (x, y or z), board units.
+        extent: f64,
+        /// Distance of the view's board centroid from the median of the views' centroids (the
+        /// largest coordinate difference), board units.
+        distance: f64,
+        /// The median view's extent.
+        typical: f64,
+    },
     /// The homography of a view could not be estimated (collinear or coincident points, rank
     /// deficiency, degenerate solution).
     #[error("view {view}: {source}")]

@@ -18,7 +18,7 @@ use crate::solve::JointSolution;
 use crate::warnings::Warning;
 use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
 use lm_solver::DampingPolicy;
-use nalgebra::{Matrix3, Point2, Point3, Vector2};
+use nalgebra::{Matrix3, Point2, Point3, Vector2, Vector3};
 use std::time::{Duration, Instant};
 
 /// Relative tolerance on `|Z|` for "on the plane": rounding of board coordinates (written in
@@ -197,7 +197,14 @@ pub fn prepare_camera(
     // it re-centred, as the solver does (`JointProblem::board_normalization`): 20 m away from a
     // 0.2 m board, the homography's last column dwarfs the others and the closed form lost the
     // focal length.
-    let offset = board_offset(views);
+    let out_of_scale = boards_out_of_scale(views);
+    let in_scale: Vec<(usize, &View)> = views
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| out_of_scale[*k].is_none())
+        .map(|(_, v)| *v)
+        .collect();
+    let offset = board_offset(&in_scale);
     let centred: Vec<View> = match offset {
         Some(c) => views
             .iter()
@@ -216,6 +223,7 @@ pub fn prepare_camera(
     for (k, &(index, original)) in views.iter().enumerate() {
         let view = centred.get(k).unwrap_or(original);
         let result = check_view(index, original)
+            .and_then(|()| out_of_scale[k].clone().map_or(Ok(()), Err))
             .and_then(|()| check_inside_image(index, original, image_size))
             .and_then(|()| {
                 let object: Vec<Point2<f64>> = view
@@ -471,6 +479,71 @@ pub fn prepare_camera(
 /// centroid of every view's board points when it is more than three RMS board sizes from the
 /// origin (the rule of `JointProblem::board_normalization`); `None` for ordinary boards, whose
 /// start is computed exactly as given.
+/// Views may differ in extent by this factor (partial boards, another board) before one is
+/// called out of scale.
+const BOARD_SCALE_LIMIT: f64 = 1e6;
+
+/// [`CalibrationError::BoardOutOfScale`] for each view whose board points span more than
+/// [`BOARD_SCALE_LIMIT`] times the median view's extent, or whose centroid lies that far from
+/// the median of the centroids (per coordinate; the distance is the largest coordinate
+/// difference); `None` for the others, and for every view when
+/// there are fewer than three or the median extent is zero. Non-finite points are left to
+/// `check_view`. Cost `O(points + views log views)`.
+fn boards_out_of_scale(views: &[(usize, &View)]) -> Vec<Option<CalibrationError>> {
+    let stats: Vec<Option<(Vector3<f64>, f64)>> = views
+        .iter()
+        .map(|(_, v)| {
+            let points: Vec<&Point3<f64>> = v
+                .object_points
+                .iter()
+                .filter(|p| p.coords.iter().all(|c| c.is_finite()))
+                .collect();
+            if points.is_empty() {
+                return None;
+            }
+            let (mut lo, mut hi) = (points[0].coords, points[0].coords);
+            let mut sum = Vector3::zeros();
+            for p in &points {
+                lo = lo.inf(&p.coords);
+                hi = hi.sup(&p.coords);
+                sum += p.coords / points.len() as f64;
+            }
+            Some((sum, (hi - lo).max()))
+        })
+        .collect();
+    let mut none = vec![None; views.len()];
+    let known: Vec<&(Vector3<f64>, f64)> = stats.iter().flatten().collect();
+    if known.len() < 3 {
+        return none;
+    }
+    let median = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let typical = median(known.iter().map(|s| s.1).collect());
+    let centre = Vector3::from_fn(|i, _| median(known.iter().map(|s| s.0[i]).collect()));
+    if !(typical > 0.0 && typical.is_finite()) {
+        return none;
+    }
+    for (k, s) in stats.iter().enumerate() {
+        let Some((centroid, extent)) = s else {
+            continue;
+        };
+        // The largest coordinate difference (a Euclidean norm would square 1e308 into
+        // infinity); an overflowing difference is out of scale too.
+        let distance = (centroid - centre).amax();
+        if *extent > BOARD_SCALE_LIMIT * typical || distance > BOARD_SCALE_LIMIT * typical {
+            none[k] = Some(CalibrationError::BoardOutOfScale {
+                view: views[k].0,
+                extent: *extent,
+                distance,
+                typical,
+            });
+        }
+    }
+    none
+}
+
 fn board_offset(views: &[(usize, &View)]) -> Option<Point3<f64>> {
     BoardNormalization::measure(views.iter().flat_map(|(_, v)| &v.object_points))
         .filter(BoardNormalization::origin_is_far)

@@ -229,3 +229,59 @@ fn skipping_every_view_is_an_error_that_says_so() {
     assert_eq!(err, CalibrationError::NoViews { skipped: 6 });
     assert!(err.to_string().contains("6 skipped"));
 }
+
+/// A view whose board points are corrupt (one coordinate 1e308) or in absurd units (a million
+/// million times the others) is named itself, and skipped with `skip_bad_views`; before, its
+/// numbers overflowed the board's centring and the error named view 0 (or every view skipped).
+/// A single wild point within the scale limit is not this error (what happens to it depends on
+/// the pose: rejected as an outlier, or behind the camera).
+#[test]
+fn a_view_out_of_scale_is_named_or_skipped() {
+    let set = calib_single::synthetic::generate(&calib_core::synthetic::SyntheticConfig {
+        views: 12,
+        seed: 3,
+        ..Default::default()
+    })
+    .unwrap();
+    let corrupt = |f: &dyn Fn(&mut calib_single::View)| {
+        let mut obs = set.observations.clone();
+        f(&mut obs.views[7]);
+        obs
+    };
+    for obs in [
+        corrupt(&|v| v.object_points[5].x = 1e308),
+        corrupt(&|v| {
+            for p in &mut v.object_points {
+                p.coords *= 1e12;
+            }
+        }),
+    ] {
+        let err = calibrate(&obs, &CalibrationOptions::default()).unwrap_err();
+        assert!(
+            matches!(err, CalibrationError::BoardOutOfScale { view: 7, .. }),
+            "{err}"
+        );
+        assert!(
+            err.to_string().starts_with("view 7: its board points span"),
+            "{err}"
+        );
+        let mut skip = CalibrationOptions::default();
+        skip.skip_bad_views = true;
+        let result = calibrate(&obs, &skip).unwrap();
+        assert_eq!(
+            result
+                .skipped_views
+                .iter()
+                .map(|s| s.index)
+                .collect::<Vec<_>>(),
+            vec![7]
+        );
+    }
+    let one_wild = corrupt(&|v| v.object_points[5].x = 1e7);
+    if let Err(e) = calibrate(&one_wild, &CalibrationOptions::default()) {
+        assert!(
+            !matches!(e, CalibrationError::BoardOutOfScale { .. }),
+            "{e}"
+        );
+    }
+}
