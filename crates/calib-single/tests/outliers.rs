@@ -249,25 +249,7 @@ fn a_view_from_another_lens_is_named_or_skipped() {
         p.x = k.cx + k.fx * x * s;
         p.y = k.cy + k.fy * y * s;
     }
-    match calibrate(&obs, &CalibrationOptions::default()) {
-        Err(e @ CalibrationError::MostlyOutliers { .. }) => {
-            assert!(e.to_string().starts_with("view 7"), "{e}");
-        }
-        Ok(r) => panic!("accepted: rms {} rejected {}", r.rms, r.num_rejected),
-        Err(e) => panic!("{e}"),
-    }
-    let mut skip = CalibrationOptions::default();
-    skip.skip_bad_views = true;
-    let result = calibrate(&obs, &skip).unwrap();
-    assert_eq!(
-        result
-            .skipped_views
-            .iter()
-            .map(|s| s.index)
-            .collect::<Vec<_>>(),
-        vec![7]
-    );
-    assert_eq!(result.num_rejected, 0);
+    let result = view_7_is_named_or_skipped(&obs);
     let mut truth = vec![0.0; 8];
     set.camera.write_params(&mut truth);
     assert!((params(&result)[0] - truth[0]).abs() < 4.0 * result.intrinsics_std[0]);
@@ -283,29 +265,8 @@ fn a_view_with_the_wrong_board_size_is_named_or_skipped() {
     let set = generate(&config).unwrap();
     let mut obs = set.observations.clone();
     let view = &mut obs.views[7];
-    view.image_points.truncate(48);
-    view.object_points = (0..48)
-        .map(|i| nalgebra::Point3::new(25.0 * (i % 8) as f64, 25.0 * (i / 8) as f64, 0.0))
-        .collect();
-    match calibrate(&obs, &CalibrationOptions::default()) {
-        Err(e @ CalibrationError::MostlyOutliers { .. }) => {
-            assert!(e.to_string().starts_with("view 7"), "{e}");
-        }
-        Ok(r) => panic!("accepted: rms {} rejected {}", r.rms, r.num_rejected),
-        Err(e) => panic!("{e}"),
-    }
-    let mut skip = CalibrationOptions::default();
-    skip.skip_bad_views = true;
-    let result = calibrate(&obs, &skip).unwrap();
-    assert_eq!(
-        result
-            .skipped_views
-            .iter()
-            .map(|s| s.index)
-            .collect::<Vec<_>>(),
-        vec![7]
-    );
-    assert_eq!(result.num_rejected, 0);
+    wrong_board_size(view);
+    view_7_is_named_or_skipped(&obs);
 }
 
 /// Strong barrel distortion: the homography of a board filling the image leaves tens of pixels
@@ -339,11 +300,7 @@ fn several_bad_views_are_skipped_together() {
     let bad = [3, 17, 40, 41, 66, 90];
     let mut obs = set.observations.clone();
     for &k in &bad {
-        let view = &mut obs.views[k];
-        view.image_points.truncate(48);
-        view.object_points = (0..48)
-            .map(|i| nalgebra::Point3::new(25.0 * (i % 8) as f64, 25.0 * (i / 8) as f64, 0.0))
-            .collect();
+        wrong_board_size(&mut obs.views[k]);
     }
     let mut skip = CalibrationOptions::default();
     skip.skip_bad_views = true;
@@ -367,4 +324,32 @@ fn several_bad_views_are_skipped_together() {
     let reference = calibrate(&clean, &CalibrationOptions::default()).unwrap();
     assert_eq!(result.rms, reference.rms);
     assert_eq!(result.camera, reference.camera);
+}
+
+/// `obs` is refused naming view 7 as mostly outliers, and calibrated without it (and nothing
+/// else rejected) when bad views are skipped.
+fn view_7_is_named_or_skipped(obs: &calib_single::Observations) -> calib_single::Calibration {
+    match calibrate(obs, &CalibrationOptions::default()) {
+        Err(e @ CalibrationError::MostlyOutliers { .. }) => {
+            assert!(e.to_string().starts_with("view 7"), "{e}");
+        }
+        Ok(r) => panic!("accepted: rms {} rejected {}", r.rms, r.num_rejected),
+        Err(e) => panic!("{e}"),
+    }
+    let mut skip = CalibrationOptions::default();
+    skip.skip_bad_views = true;
+    let result = calibrate(obs, &skip).unwrap();
+    let skipped: Vec<usize> = result.skipped_views.iter().map(|s| s.index).collect();
+    assert_eq!(skipped, vec![7]);
+    assert_eq!(result.num_rejected, 0);
+    result
+}
+
+/// A view of a 9x6 board detected as an 8x6 one: the first 48 corners with an 8x6 board's
+/// points.
+fn wrong_board_size(view: &mut calib_single::View) {
+    view.image_points.truncate(48);
+    view.object_points = (0..48)
+        .map(|i| nalgebra::Point3::new(25.0 * (i % 8) as f64, 25.0 * (i / 8) as f64, 0.0))
+        .collect();
 }
