@@ -212,49 +212,22 @@ fn too_few_views_to_cross_validate_give_no_recommendation() {
 /// made with `--fix-principal-point` gave brown-conrady4 8 parameters where 6 were fitted).
 #[test]
 fn held_intrinsics_are_not_counted_as_parameters() {
-    let views = views_of(
-        CameraModel::BrownConrady4,
-        Intrinsics::new(800.0, 800.0, 319.5, 239.5),
-    );
-    let mut options = CalibrationOptions::default();
-    options.fix_principal_point = true;
-    let c = compare_models(
-        &views,
-        &options,
-        &[CameraModel::BrownConrady4, CameraModel::KannalaBrandt4],
-        &[],
-    );
-    assert_eq!(
-        row(&c, CameraModel::BrownConrady4).parameters,
-        6,
-        "{}",
-        c.table()
-    );
-    assert_eq!(
-        row(&c, CameraModel::KannalaBrandt4).parameters,
-        6,
-        "{}",
-        c.table()
-    );
-    options.fix_aspect_ratio = true;
-    options.zero_tangential_distortion = true;
-    let c = compare_models(
-        &views,
-        &options,
-        &[CameraModel::BrownConrady4, CameraModel::BrownConrady5],
-        &[],
-    );
-    // fx, k1, k2 (and k3): fy follows fx, p1 and p2 stay zero.
-    assert_eq!(
-        row(&c, CameraModel::BrownConrady4).parameters,
-        3,
-        "{}",
-        c.table()
-    );
-    assert_eq!(
-        row(&c, CameraModel::BrownConrady5).parameters,
-        4,
-        "{}",
-        c.table()
-    );
+    use CameraModel::{BrownConrady4, BrownConrady5, KannalaBrandt4};
+    let views = views_of(BrownConrady4, Intrinsics::new(800.0, 800.0, 319.5, 239.5));
+    let mut pp = CalibrationOptions::default();
+    pp.fix_principal_point = true;
+    // And fy following fx, p1 and p2 held at zero: fx, k1, k2 (and k3) are left.
+    let mut more = pp.clone();
+    more.fix_aspect_ratio = true;
+    more.zero_tangential_distortion = true;
+    for (options, expected) in [
+        (pp, [(BrownConrady4, 6), (KannalaBrandt4, 6)]),
+        (more, [(BrownConrady4, 3), (BrownConrady5, 4)]),
+    ] {
+        let models = expected.map(|(m, _)| m);
+        let c = compare_models(&views, &options, &models, &[]);
+        for (model, parameters) in expected {
+            assert_eq!(row(&c, model).parameters, parameters, "{}", c.table());
+        }
+    }
 }
