@@ -18,7 +18,8 @@
 //!   (`projection.rs`);
 //! * [`estimate`]: both stages, the normal entry point;
 //! * [`estimate_robust`] (`robust.rs`): [`estimate`], or least median of squares when some
-//!   correspondences are wrong (stray corners), with the inliers.
+//!   correspondences are wrong (stray corners), with the inliers; its four-point samples are
+//!   fitted in closed form (`minimal.rs`) rather than by the DLT.
 //!
 //! Degenerate input (too few, non-finite, coincident or collinear points, configurations
 //! without a unique solution, a plane origin mapped to infinity) is reported as a
@@ -55,6 +56,7 @@
 
 mod dlt;
 mod error;
+mod minimal;
 mod normalization;
 mod projection;
 mod refine;

@@ -6,7 +6,8 @@
 //! or below `min_threshold_px`) and the median residual is below `min_threshold_px`, that fit is
 //! returned: clean views, the common case, cost nothing
 //! extra. Otherwise LMedS draws four-point samples (deterministic, seeded from the data), keeps
-//! the exact homography of the sample whose median squared residual over all points is smallest,
+//! the exact homography of the sample (in closed form, `minimal.rs`; samples with three collinear
+//! points are skipped) whose median squared residual over all points is smallest,
 //! marks as inliers the points within `inlier_factor` robust standard deviations of it (Rousseeuw's
 //! scale estimate, `1.4826 (1 + 5 / (n - 4)) sqrt(median)`), and refits the inliers. LMedS
 //! tolerates up to half the points being wrong; when fewer than half fit one homography the view
@@ -16,8 +17,8 @@
 //! model: its residual field is smooth and at most a few times its median, while a stray corner
 //! is tens of robust standard deviations away.
 
-use crate::dlt::dlt;
 use crate::error::HomographyError;
+use crate::minimal::SampleSolver;
 use crate::refine::{HomographyEstimate, RefineOptions, estimate};
 use nalgebra::{Matrix3, Point2};
 
@@ -68,14 +69,18 @@ fn residuals(h: &Matrix3<f64>, object: &[Point2<f64>], image: &[Point2<f64>]) ->
     object
         .iter()
         .zip(image)
-        .map(|(x, m)| {
-            let w = h[(2, 0)] * x.x + h[(2, 1)] * x.y + h[(2, 2)];
-            let u = (h[(0, 0)] * x.x + h[(0, 1)] * x.y + h[(0, 2)]) / w;
-            let v = (h[(1, 0)] * x.x + h[(1, 1)] * x.y + h[(1, 2)]) / w;
-            let d = ((u - m.x).powi(2) + (v - m.y).powi(2)).sqrt();
-            if d.is_finite() { d } else { f64::INFINITY }
-        })
+        .map(|(x, m)| residual(h, x, m))
         .collect()
+}
+
+/// Residual norm (pixels) of one point under `h`; infinite when it maps to infinity.
+#[inline]
+fn residual(h: &Matrix3<f64>, x: &Point2<f64>, m: &Point2<f64>) -> f64 {
+    let w = h[(2, 0)] * x.x + h[(2, 1)] * x.y + h[(2, 2)];
+    let u = (h[(0, 0)] * x.x + h[(0, 1)] * x.y + h[(0, 2)]) / w;
+    let v = (h[(1, 0)] * x.x + h[(1, 1)] * x.y + h[(1, 2)]) / w;
+    let d = ((u - m.x).powi(2) + (v - m.y).powi(2)).sqrt();
+    if d.is_finite() { d } else { f64::INFINITY }
 }
 
 fn median(values: &mut [f64]) -> f64 {
@@ -147,6 +152,8 @@ pub fn estimate_robust(
         a.rotate_left(7) ^ p.x.to_bits() ^ p.y.to_bits().rotate_left(29)
     });
     let mut sampler = Sampler(seed);
+    // The whole view passed `estimate`, so its normalization exists.
+    let solver = SampleSolver::new(object, image)?;
     let mut best: Option<(f64, Matrix3<f64>)> = None;
     let mut scratch = Vec::with_capacity(n);
     for _ in 0..options.samples {
@@ -160,11 +167,16 @@ pub fn estimate_robust(
                 }
             }
         }
-        let o: Vec<Point2<f64>> = idx.iter().map(|&i| object[i]).collect();
-        let m: Vec<Point2<f64>> = idx.iter().map(|&i| image[i]).collect();
-        let Ok(h) = dlt(&o, &m) else { continue };
+        // The exact homography of the sample in closed form (a 9x9 eigen-decomposition per
+        // sample was most of the run on contaminated views); degenerate samples are skipped.
+        let Some(h) = solver.solve(object, &idx) else {
+            continue;
+        };
         scratch.clear();
-        scratch.extend(residuals(&h, object, image).iter().map(|d| d * d));
+        scratch.extend(object.iter().zip(image).map(|(x, m)| {
+            let d = residual(&h, x, m);
+            d * d
+        }));
         let med = median(&mut scratch);
         if med.is_finite() && best.is_none_or(|(b, _)| med < b) {
             best = Some((med, h));
