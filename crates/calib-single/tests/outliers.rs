@@ -74,21 +74,8 @@ fn assert_rejected_exactly(
 /// intrinsics stay within 4 sigma of the truth.
 #[test]
 fn stray_corners_are_rejected_under_a_rational_model() {
-    use calib_core::synthetic::default_distortion;
-    use camera_model::{CameraModel, Intrinsics};
     for seed in 1..=3u64 {
-        let config = SyntheticConfig {
-            seed,
-            noise_px: 0.2,
-            model: CameraModel::Rational8,
-            distortion: default_distortion(CameraModel::Rational8),
-            intrinsics: Intrinsics::new(330.0, 330.0, 322.0, 236.0),
-            views: 30,
-            ..Default::default()
-        };
-        let set = generate(&config).unwrap();
-        let mut options = CalibrationOptions::default();
-        options.model = CameraModel::Rational8;
+        let (set, options) = wide_rational8(seed);
         let clean = calibrate(&set.observations, &options).unwrap();
         assert_eq!(clean.num_rejected, 0, "seed {seed}");
         let mut obs = set.observations.clone();
@@ -121,20 +108,7 @@ fn stray_corners_are_rejected_under_a_rational_model() {
 /// were counted as `uncertainty`, which then looked like the slowest stage.
 #[test]
 fn the_optimization_stage_counts_every_solve() {
-    use calib_core::synthetic::default_distortion;
-    use camera_model::{CameraModel, Intrinsics};
-    let config = SyntheticConfig {
-        seed: 1,
-        noise_px: 0.2,
-        model: CameraModel::Rational8,
-        distortion: default_distortion(CameraModel::Rational8),
-        intrinsics: Intrinsics::new(330.0, 330.0, 322.0, 236.0),
-        views: 30,
-        ..Default::default()
-    };
-    let set = generate(&config).unwrap();
-    let mut options = CalibrationOptions::default();
-    options.model = CameraModel::Rational8;
+    let (set, options) = wide_rational8(1);
     let mut obs = set.observations.clone();
     inject_stray_corners(&mut obs, 1);
     let result = calibrate(&obs, &options).unwrap();
@@ -403,4 +377,23 @@ fn stray_corners_in_every_view_do_not_refuse_a_good_view() {
         }
     }
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// 30 views of a wide rational8 lens (fx 330 on 640x480, the generator's default distortion),
+/// 0.2 px of noise, and the options that calibrate it with that model.
+fn wide_rational8(seed: u64) -> (calib_single::synthetic::SyntheticSet, CalibrationOptions) {
+    use calib_core::synthetic::default_distortion;
+    use camera_model::{CameraModel, Intrinsics};
+    let config = SyntheticConfig {
+        seed,
+        noise_px: 0.2,
+        model: CameraModel::Rational8,
+        distortion: default_distortion(CameraModel::Rational8),
+        intrinsics: Intrinsics::new(330.0, 330.0, 322.0, 236.0),
+        views: 30,
+        ..Default::default()
+    };
+    let mut options = CalibrationOptions::default();
+    options.model = CameraModel::Rational8;
+    (generate(&config).unwrap(), options)
 }
