@@ -470,7 +470,8 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     crate::after::check_export_models(&targets, &[options.model])?;
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
-        calibrate(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
+        calibrate(&observations, &options)
+            .map_err(|e| Failure(format!("{source}: {}", observations.describe(&e))))
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::single(&result, Some(&observations))?;

@@ -234,6 +234,16 @@ pub struct OutlierView {
     pub points: usize,
 }
 
+impl OutlierView {
+    /// The message without the view's location: for a list that names the view already.
+    pub fn detail(&self) -> String {
+        format!(
+            "{} of {} points are outliers: the view does not match the board (wrong correspondences?)",
+            self.rejected, self.points
+        )
+    }
+}
+
 impl std::fmt::Display for OutlierView {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
@@ -244,7 +254,79 @@ impl std::fmt::Display for OutlierView {
     }
 }
 
+/// A view in user terms: `view 3 (img03.png)`, or `view 3` when the view has no name of its own
+/// (its name is empty or is that same text).
+pub fn view_location(index: usize, name: &str) -> String {
+    let plain = format!("view {index}");
+    if name.is_empty() || name == plain {
+        plain
+    } else {
+        format!("{plain} ({name})")
+    }
+}
+
 impl CalibrationError {
+    /// The input view (index from 0) an error about one view's input names as `view N`: the
+    /// point checks, the homography and the initial pose. `None` for the others
+    /// ([`CalibrationError::MostlyOutliers`] carries its view's `location` already).
+    pub fn view(&self) -> Option<usize> {
+        match self {
+            CalibrationError::PointCountMismatch { view, .. }
+            | CalibrationError::PointOutsideImage { view, .. }
+            | CalibrationError::TooFewPoints { view, .. }
+            | CalibrationError::NonFinite { view, .. }
+            | CalibrationError::NotPlanar { view, .. }
+            | CalibrationError::BoardOutOfScale { view, .. }
+            | CalibrationError::Homography { view, .. }
+            | CalibrationError::PointBehindCamera { view, .. } => Some(*view),
+            _ => None,
+        }
+    }
+
+    /// The message with its `view N` replaced by `location` (e.g. `"view 3 (img03.png)"` from
+    /// [`view_location`], `"pair 3, left view"`); the plain message for errors about no one
+    /// view.
+    pub fn message_at(&self, location: &str) -> String {
+        let message = self.to_string();
+        match self.view() {
+            Some(v) => match message.strip_prefix(&format!("view {v}")) {
+                Some(rest) => format!("{location}{rest}"),
+                None => message,
+            },
+            None => message,
+        }
+    }
+
+    /// The message without its leading `view N: ` (a point keeps its `point K, `; a
+    /// [`CalibrationError::MostlyOutliers`] loses its location and the advice to skip): for a
+    /// list that names the view already, such as the skipped views.
+    pub fn detail(&self) -> String {
+        if let CalibrationError::MostlyOutliers {
+            rejected, points, ..
+        } = self
+        {
+            return OutlierView {
+                observation: 0,
+                location: String::new(),
+                rejected: *rejected,
+                points: *points,
+            }
+            .detail();
+        }
+        let message = self.to_string();
+        let Some(v) = self.view() else {
+            return message;
+        };
+        match message.strip_prefix(&format!("view {v}")) {
+            Some(rest) => rest
+                .strip_prefix(": ")
+                .or_else(|| rest.strip_prefix(", "))
+                .unwrap_or(rest)
+                .to_string(),
+            None => message,
+        }
+    }
+
     /// The observations a caller that skips bad views leaves out after this error (empty for
     /// every error but [`CalibrationError::MostlyOutliers`]): the one it names and, when the
     /// views past the limit are few (at most a tenth of the `num_observations`), every other one
@@ -286,6 +368,64 @@ mod tests {
             points: 54,
             also: (100..100 + also).map(view).collect(),
         }
+    }
+
+    /// Every error about one view's input starts with `view N`, so that front ends can put the
+    /// image's name there; `detail` drops it where the view is named already.
+    #[test]
+    fn view_errors_can_be_located_by_name() {
+        let errors = [
+            CalibrationError::PointCountMismatch {
+                view: 3,
+                object: 10,
+                image: 54,
+            },
+            CalibrationError::PointOutsideImage {
+                view: 3,
+                point: 7,
+                x: 700.0,
+                y: 1.0,
+                width: 640,
+                height: 480,
+            },
+            CalibrationError::TooFewPoints { view: 3, found: 2 },
+            CalibrationError::NonFinite {
+                view: 3,
+                point: 7,
+                kind: PointKind::Image,
+            },
+            CalibrationError::NotPlanar {
+                view: 3,
+                point: 7,
+                z: 1.0,
+            },
+            CalibrationError::BoardOutOfScale {
+                view: 3,
+                extent: 1e9,
+                distance: 1e9,
+                typical: 200.0,
+            },
+            CalibrationError::Homography {
+                view: 3,
+                source: HomographyError::TooFewPoints { found: 3 },
+            },
+            CalibrationError::PointBehindCamera { view: 3, point: 7 },
+        ];
+        for e in errors {
+            assert_eq!(e.view(), Some(3), "{e}");
+            let located = e.message_at(&view_location(3, "left4.jpg"));
+            assert!(located.starts_with("view 3 (left4.jpg)"), "{located}");
+            assert_eq!(located.matches("view 3").count(), 1, "{located}");
+            let detail = e.detail();
+            assert!(!detail.contains("view 3"), "{detail}");
+            assert!(e.to_string().ends_with(&detail), "{e} / {detail}");
+        }
+        assert_eq!(view_location(3, "view 3"), "view 3");
+        assert_eq!(view_location(3, ""), "view 3");
+        let other = CalibrationError::Diverged("x".into());
+        assert_eq!(other.view(), None);
+        assert_eq!(other.message_at("view 1 (a.png)"), other.to_string());
+        assert_eq!(other.detail(), other.to_string());
     }
 
     /// The others of the round go with the named view only while the views past the limit are at

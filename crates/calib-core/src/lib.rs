@@ -30,7 +30,7 @@ pub mod warnings;
 
 pub use cost::JointCost;
 pub use data::{ImageSize, View};
-pub use error::{CalibrationError, OutlierView, PointKind};
+pub use error::{CalibrationError, OutlierView, PointKind, view_location};
 pub use init::FocalInit;
 pub use io::{JsonFile, ReadError, read_text, write_atomically};
 pub use options::{CalibrationOptions, default_solver_options};

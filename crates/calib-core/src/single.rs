@@ -264,7 +264,7 @@ pub fn prepare_camera(
             Err(e) if options.skip_bad_views => skipped.push(SkippedView {
                 index,
                 name: view.name.clone(),
-                reason: e.to_string(),
+                reason: e.detail(),
             }),
             Err(e) => return Err(e),
         }
@@ -682,7 +682,7 @@ impl PreparedCamera {
             frame_names: self
                 .views
                 .iter()
-                .map(|(i, name)| format!("view {i} ({name})"))
+                .map(|(i, name)| crate::error::view_location(*i, name))
                 .collect(),
             frames: std::mem::take(&mut self.initial_poses),
             observations: std::mem::take(&mut self.observations),

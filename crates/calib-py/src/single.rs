@@ -48,6 +48,10 @@ pub fn with_view_name(message: String, what: &str, names: Option<&[String]>) -> 
         return message;
     };
     let digits = rest.chars().take_while(|c| c.is_ascii_digit()).count();
+    if rest[digits..].starts_with(" (") {
+        // Named already (the engine's `view 3 (img03.png)`).
+        return message;
+    }
     match rest[..digits]
         .parse::<usize>()
         .ok()

@@ -164,6 +164,16 @@ def test_names_appear_in_error_messages(left):
         calib.calibrate_camera(obj, bad, size, names=names)
     with pytest.raises(calib.CalibrationError, match=r"^view 3, point 5: non-finite"):
         calib.calibrate_camera(obj, bad, size)
+    # A view that misses the board as a whole (an 8x6 board's points for its first 48
+    # corners): named by the engine, once.
+    wrong = [x.copy() for x in obj]
+    step = np.linalg.norm(obj[3][1] - obj[3][0])
+    wrong[3] = np.array([[step * (i % 8), step * (i // 8), 0.0] for i in range(48)])
+    short = [x.copy() for x in img]
+    short[3] = short[3][:48]
+    with pytest.raises(calib.CalibrationError, match=r"^view 3 \(left4\.jpg\): \d+ of 48 points are outliers") as e:
+        calib.calibrate_camera(wrong, short, size, names=names, reject_outliers=True)
+    assert str(e.value).count("left4") == 1, str(e.value)
     o, l, r, s = stereo_arrays("sourishg1/stereo.json")
     r = [x.copy() for x in r]
     r[4][0, 0] = np.inf

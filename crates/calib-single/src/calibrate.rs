@@ -5,7 +5,8 @@ use crate::observations::{Observations, View};
 use crate::result::Calibration;
 use calib_core::single::camera_param_names;
 use calib_core::{
-    CalibrationError, CalibrationOptions, SkippedView, StageTimes, ViewResult, prepare_camera,
+    CalibrationError, CalibrationOptions, OutlierView, SkippedView, StageTimes, ViewResult,
+    prepare_camera,
 };
 use camera_model::{AnyCamera, Pose};
 use nalgebra::Vector2;
@@ -51,7 +52,7 @@ pub fn calibrate(
                     let reason = also
                         .iter()
                         .find(|v| v.observation == observation)
-                        .map_or_else(|| e.to_string(), |v| v.to_string());
+                        .map_or_else(|| e.detail(), OutlierView::detail);
                     dropped.push(SkippedView {
                         index,
                         name,

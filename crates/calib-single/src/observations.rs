@@ -74,6 +74,19 @@ impl JsonFile for Observations {
 }
 
 impl Observations {
+    /// `error`'s message with the view it is about named by its image (`view 3 (left4.jpg): ...`
+    /// instead of `view 3: ...`), for printing: the view numbers count the views given, which
+    /// differ from the images given once detection drops some.
+    pub fn describe(&self, error: &calib_core::CalibrationError) -> String {
+        match error
+            .view()
+            .and_then(|v| self.views.get(v).map(|view| (v, view)))
+        {
+            Some((v, view)) => error.message_at(&calib_core::view_location(v, &view.name)),
+            None => error.to_string(),
+        }
+    }
+
     /// Total number of points over all views.
     pub fn num_points(&self) -> usize {
         self.views.iter().map(|v| v.object_points.len()).sum()

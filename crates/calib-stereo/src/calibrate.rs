@@ -59,9 +59,10 @@ pub fn calibrate_stereo(
                 }
                 let reason = error.to_string();
                 for (k, own) in bad {
+                    let index = kept[k];
                     skipped.push(SkippedPair {
-                        index: kept[k],
-                        reason: own.unwrap_or_else(|| reason.clone()),
+                        index,
+                        reason: without_pair(index, &own.unwrap_or_else(|| reason.clone())),
                     });
                 }
                 remove_positions(&mut kept, &positions);
@@ -90,6 +91,17 @@ pub fn calibrate_stereo(
             }
         }
     }
+}
+
+/// `message` without its leading `pair {index}, ` or `pair {index}: `: the reason a skipped
+/// pair's entry gives, which names the pair already.
+fn without_pair(index: usize, message: &str) -> String {
+    let pair = format!("pair {index}");
+    message
+        .strip_prefix(&pair)
+        .and_then(|rest| rest.strip_prefix(", ").or_else(|| rest.strip_prefix(": ")))
+        .unwrap_or(message)
+        .to_string()
 }
 
 fn remove_positions(kept: &mut Vec<usize>, positions: &[usize]) {
@@ -267,9 +279,19 @@ fn calibrate_pairs(
             .iter()
             .map(|&k| (kept[k], disagreements[k].to_degrees()))
             .collect();
+        let own = |&(_, angle): &(usize, f64)| {
+            format!(
+                "its rotation from the left to the right camera differs from the other pairs' by {angle:.0} degrees (more than 30): are the right view's corners in the same order as the left's (not reversed or rotated), and are both views from the same moment?"
+            )
+        };
+        let reasons = mismatched
+            .iter()
+            .zip(&pairs)
+            .map(|(&k, p)| (k, Some(own(p))))
+            .collect();
         return Err(PairsFailure::BadPairs(
             StereoError::MismatchedPairs { pairs },
-            mismatched.into_iter().map(|k| (k, None)).collect(),
+            reasons,
         ));
     }
 
@@ -549,7 +571,7 @@ fn select_pairs(
             Ok(()) => kept.push(index),
             Err(e) if options.skip_bad_pairs => skipped.push(SkippedPair {
                 index,
-                reason: e.to_string(),
+                reason: without_pair(index, &e.to_string()),
             }),
             Err(e) => return Err(e),
         }

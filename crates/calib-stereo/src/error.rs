@@ -46,7 +46,7 @@ pub enum StereoError {
         height: u32,
     },
     /// A view of a pair failed the single-camera checks.
-    #[error("pair {pair}, {camera} view: {source}")]
+    #[error("pair {pair}, {camera} view: {}", .source.detail())]
     View {
         /// Pair index.
         pair: usize,
@@ -56,11 +56,11 @@ pub enum StereoError {
         source: CalibrationError,
     },
     /// The single-camera calibration that initializes one camera failed.
-    #[error("initial calibration of the {camera} camera: {source}")]
+    #[error("{}", camera_failure(*.camera, .source))]
     Camera {
         /// The camera.
         camera: Side,
-        /// The single-camera error.
+        /// The single-camera error (its view index is the pair index).
         source: CalibrationError,
     },
     /// The left and right views of these pairs are the same image (same homography).
@@ -110,4 +110,13 @@ pub enum StereoError {
     /// A non-finite value came out of the optimization.
     #[error("the optimization diverged ({0})")]
     Diverged(String),
+}
+
+/// A [`StereoError::Camera`]'s message: `pair 3, left view: ...` for an error about one view
+/// (whose view index is the pair index), else `initial calibration of the left camera: ...`.
+fn camera_failure(camera: Side, source: &CalibrationError) -> String {
+    match source.view() {
+        Some(pair) => format!("pair {pair}, {camera} view: {}", source.detail()),
+        None => format!("initial calibration of the {camera} camera: {source}"),
+    }
 }

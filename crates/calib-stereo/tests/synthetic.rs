@@ -309,11 +309,17 @@ fn bad_pairs_are_named_or_skipped() {
     }
     let err = calibrate_stereo(&set.observations, &StereoOptions::default()).unwrap_err();
     assert!(
-        err.to_string().contains("right camera") && err.to_string().contains("view 2"),
+        err.to_string().starts_with("pair 2, right view: ") && !err.to_string().contains("view 2"),
         "{err}"
     );
     let r = calibrate_stereo(&set.observations, &options).unwrap();
     assert_eq!(r.skipped_pairs[0].index, 2);
+    // The reason does not repeat the pair its entry names.
+    assert!(
+        r.skipped_pairs[0].reason.starts_with("right view: "),
+        "{}",
+        r.skipped_pairs[0].reason
+    );
 }
 
 #[test]
