@@ -322,7 +322,8 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
         .map(String::as_str)
         .collect();
     let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
-        calibrate_stereo(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
+        calibrate_stereo(&observations, &options)
+            .map_err(|e| Failure(format!("{source}: {}", observations.describe(&e))))
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;

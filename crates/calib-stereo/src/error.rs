@@ -112,6 +112,18 @@ pub enum StereoError {
     Diverged(String),
 }
 
+impl StereoError {
+    /// The view an error about one view's input is about: its pair (index from 0) and camera.
+    /// Its message then starts with `pair {pair}, {camera} view`.
+    pub fn view(&self) -> Option<(usize, Side)> {
+        match self {
+            StereoError::View { pair, camera, .. } => Some((*pair, *camera)),
+            StereoError::Camera { camera, source } => source.view().map(|pair| (pair, *camera)),
+            _ => None,
+        }
+    }
+}
+
 /// A [`StereoError::Camera`]'s message: `pair 3, left view: ...` for an error about one view
 /// (whose view index is the pair index), else `initial calibration of the left camera: ...`.
 fn camera_failure(camera: Side, source: &CalibrationError) -> String {

@@ -120,6 +120,26 @@ impl JsonFile for StereoObservations {
 }
 
 impl StereoObservations {
+    /// `error`'s message with the view it is about named by its image (`pair 3, left view
+    /// (left4.jpg): ...`), for printing.
+    pub fn describe(&self, error: &crate::StereoError) -> String {
+        let message = error.to_string();
+        let Some((pair, side)) = error.view() else {
+            return message;
+        };
+        let (Some(p), location) = (self.pairs.get(pair), format!("pair {pair}, {side} view"))
+        else {
+            return message;
+        };
+        let name = &p.view(side).name;
+        match message.strip_prefix(&location) {
+            Some(rest) if *name != format!("pair {pair} {side}") => {
+                format!("{location} ({name}){rest}")
+            }
+            _ => message,
+        }
+    }
+
     /// The JSON form (the format [`StereoObservations::from_json`] reads): `object_points` when
     /// both views share their board points, `left_object_points` and `right_object_points`
     /// otherwise.

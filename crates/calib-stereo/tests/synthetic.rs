@@ -312,6 +312,13 @@ fn bad_pairs_are_named_or_skipped() {
         err.to_string().starts_with("pair 2, right view: ") && !err.to_string().contains("view 2"),
         "{err}"
     );
+    // Printed with the image's name.
+    set.observations.pairs[2].right.name = "right3.png".into();
+    let described = set.observations.describe(&err);
+    assert!(
+        described.starts_with("pair 2, right view (right3.png): "),
+        "{described}"
+    );
     let r = calibrate_stereo(&set.observations, &options).unwrap();
     assert_eq!(r.skipped_pairs[0].index, 2);
     // The reason does not repeat the pair its entry names.
