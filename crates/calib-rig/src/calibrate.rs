@@ -509,60 +509,135 @@ pub fn rig_problem(
     .0
 }
 
+/// Largest distance between the board positions two views of one frame imply in the reference
+/// camera (the start transforms applied to each camera's own board pose), as a fraction of the
+/// board's distance from the cameras, for the views to count as one moment. Correct views agree
+/// within the per-camera depth errors (a few percent); a view from another moment (one camera's
+/// images numbered one frame off) or with the board's points in the wrong unit or size (a view
+/// of a board scaled by `s` is placed `s` times as far) lies beyond it, while turned by less than
+/// [`MAX_TRANSFORM_DISAGREEMENT_DEG`] when the board moved little between the frames.
+const MAX_POSITION_DISAGREEMENT: f64 = 0.1;
+
+/// Views of one frame that contradict the rest of the rig: `cameras` disagree with the frame's
+/// other views (with two views, both) by up to `angle_deg` in rotation and by up to `offset`
+/// (board units, `fraction` of the board's distance) in position.
+#[derive(Debug, Clone, PartialEq)]
+struct Disagreement {
+    frame: usize,
+    cameras: Vec<usize>,
+    angle_deg: f64,
+    offset: f64,
+    fraction: f64,
+}
+
 /// Views whose own board pose, carried to the reference camera by the start transforms,
-/// disagrees with the frame's other views by more than [`MAX_TRANSFORM_DISAGREEMENT_DEG`]: per
-/// frame, the cameras that disagree with the majority (with two views, both) and the angle, in
-/// degrees. Such a view is consistent on its own (reversed corner numbering is a board turned
-/// half a turn) but not with the rig.
+/// disagrees with the frame's other views: turned more than [`MAX_TRANSFORM_DISAGREEMENT_DEG`]
+/// (reversed corner numbering is a board turned half a turn), or placed more than
+/// [`MAX_POSITION_DISAGREEMENT`] of its distance away (a view from another moment, a board of
+/// the wrong size). Such a view is consistent on its own but not with the rig.
 fn inconsistent_views(
     observations: &RigObservations,
     starts: &[CameraStart],
     transforms: &[Pose],
-) -> Vec<(usize, Vec<usize>, f64)> {
+) -> Vec<Disagreement> {
+    struct Implied {
+        camera: usize,
+        rotation: nalgebra::Matrix3<f64>,
+        position: nalgebra::Vector3<f64>,
+        distance: f64,
+    }
     let mut found = Vec::new();
     for (f, frame) in observations.frames.iter().enumerate() {
-        let implied: Vec<(usize, nalgebra::Matrix3<f64>)> = frame
+        // One board point for every view (views may be partial): the mean of their points.
+        let points: Vec<&nalgebra::Point3<f64>> = frame
+            .observations
+            .iter()
+            .flat_map(|o| &o.view.object_points)
+            .collect();
+        if points.is_empty() {
+            continue;
+        }
+        let centre = nalgebra::Point3::from(
+            points
+                .iter()
+                .map(|p| p.coords)
+                .sum::<nalgebra::Vector3<f64>>()
+                / points.len() as f64,
+        );
+        let implied: Vec<Implied> = frame
             .observations
             .iter()
             .filter_map(|o| {
                 let pose = starts[o.camera].poses.get(&f)?;
-                Some((
-                    o.camera,
-                    transforms[o.camera].rotation.transpose() * pose.rotation,
-                ))
+                let to_reference = transforms[o.camera].inverse();
+                let in_camera = pose.transform_point(&centre);
+                Some(Implied {
+                    camera: o.camera,
+                    rotation: to_reference.rotation * pose.rotation,
+                    position: to_reference.rotation * in_camera + to_reference.translation,
+                    distance: in_camera.norm(),
+                })
             })
             .collect();
         if implied.len() < 2 {
             continue;
         }
-        let angle = |a: &nalgebra::Matrix3<f64>, b: &nalgebra::Matrix3<f64>| {
-            AxisAngle::from_matrix(&(a.transpose() * b))
+        let angle = |a: &Implied, b: &Implied| {
+            AxisAngle::from_matrix(&(a.rotation.transpose() * b.rotation))
                 .norm()
                 .to_degrees()
+        };
+        let offset = |a: &Implied, b: &Implied| (a.position - b.position).norm();
+        let fraction = |a: &Implied, b: &Implied| {
+            let distance = 0.5 * (a.distance + b.distance);
+            if distance > 0.0 {
+                offset(a, b) / distance
+            } else {
+                0.0
+            }
+        };
+        // Disagreement in units of the limits: above 1 is inconsistent.
+        let score = |a: &Implied, b: &Implied| {
+            (angle(a, b) / MAX_TRANSFORM_DISAGREEMENT_DEG)
+                .max(fraction(a, b) / MAX_POSITION_DISAGREEMENT)
         };
         // The view closest to all others; with two views, either.
         let medoid = (0..implied.len())
             .min_by(|&i, &j| {
-                let si: f64 = implied.iter().map(|v| angle(&implied[i].1, &v.1)).sum();
-                let sj: f64 = implied.iter().map(|v| angle(&implied[j].1, &v.1)).sum();
+                let si: f64 = implied.iter().map(|v| score(&implied[i], v)).sum();
+                let sj: f64 = implied.iter().map(|v| score(&implied[j], v)).sum();
                 si.total_cmp(&sj)
             })
             .expect("two views or more");
-        let off: Vec<(usize, f64)> = implied
+        let centre_view = &implied[medoid];
+        let off: Vec<&Implied> = implied
             .iter()
-            .map(|(c, r)| (*c, angle(&implied[medoid].1, r)))
-            .filter(|(_, a)| *a > MAX_TRANSFORM_DISAGREEMENT_DEG)
+            .filter(|v| score(centre_view, v) > 1.0)
             .collect();
         if off.is_empty() {
             continue;
         }
-        let worst = off.iter().map(|o| o.1).fold(0.0, f64::max);
         let cameras = if implied.len() == 2 {
-            implied.iter().map(|v| v.0).collect()
+            implied.iter().map(|v| v.camera).collect()
         } else {
-            off.iter().map(|o| o.0).collect()
+            off.iter().map(|v| v.camera).collect()
         };
-        found.push((f, cameras, worst));
+        found.push(Disagreement {
+            frame: f,
+            cameras,
+            angle_deg: off
+                .iter()
+                .map(|v| angle(centre_view, v))
+                .fold(0.0, f64::max),
+            offset: off
+                .iter()
+                .map(|v| offset(centre_view, v))
+                .fold(0.0, f64::max),
+            fraction: off
+                .iter()
+                .map(|v| fraction(centre_view, v))
+                .fold(0.0, f64::max),
+        });
     }
     found
 }
@@ -614,13 +689,23 @@ pub fn calibrate_rig(
         observations
     } else {
         let name = |c: &usize| format!("'{}'", observations.cameras[*c].name);
-        let describe = |(f, cameras, angle): &(usize, Vec<usize>, f64)| {
-            let names: Vec<String> = cameras.iter().map(name).collect();
+        let describe = |d: &Disagreement| {
+            let names: Vec<String> = d.cameras.iter().map(name).collect();
+            let what = if d.angle_deg > MAX_TRANSFORM_DISAGREEMENT_DEG {
+                format!("the board turned {:.1} degrees", d.angle_deg)
+            } else {
+                format!(
+                    "the board {:.1} board units ({:.0}% of its distance) away",
+                    d.offset,
+                    100.0 * d.fraction
+                )
+            };
             format!(
-                "frame {f}: camera{} {} {} the board turned {angle:.1} degrees from the rest of the rig",
-                if cameras.len() > 1 { "s" } else { "" },
+                "frame {}: camera{} {} {} {what} from where the rest of the rig puts it",
+                d.frame,
+                if d.cameras.len() > 1 { "s" } else { "" },
                 names.join(" and "),
-                if cameras.len() > 1 { "see" } else { "sees" },
+                if d.cameras.len() > 1 { "see" } else { "sees" },
             )
         };
         if !options.camera.skip_bad_views {
@@ -631,7 +716,7 @@ pub fn calibrate_rig(
         warnings.push(Warning::new(
             WarningCode::InconsistentView,
             format!(
-                "views left out (corners numbered differently, or views from different moments): {}",
+                "views left out (corners numbered differently, views from different moments, or a board of another size): {}",
                 inconsistent
                     .iter()
                     .map(describe)
@@ -640,10 +725,10 @@ pub fn calibrate_rig(
             ),
         ));
         let mut copy = observations.clone();
-        for (f, cameras, _) in &inconsistent {
-            copy.frames[*f]
+        for d in &inconsistent {
+            copy.frames[d.frame]
                 .observations
-                .retain(|o| !cameras.contains(&o.camera));
+                .retain(|o| !d.cameras.contains(&o.camera));
         }
         filtered = copy;
         &filtered

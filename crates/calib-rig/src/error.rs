@@ -52,10 +52,10 @@ pub enum RigError {
         /// Camera names per connected group, the reference's group first.
         groups: Vec<Vec<String>>,
     },
-    /// Views whose board pose contradicts the rest of the rig (one entry per frame, naming the
-    /// cameras).
+    /// Views whose board pose (rotation or position) contradicts the rest of the rig (one entry
+    /// per frame, naming the cameras).
     #[error(
-        "views disagree with the rig (corners numbered differently, or views from different moments): {}; fix the correspondences, remove those views, or leave them out (--skip-bad-views; Python: skip_bad_views=True)",
+        "views disagree with the rig (corners numbered differently, views from different moments, or a board of another size): {}; fix the correspondences, remove those views, or leave them out (--skip-bad-views; Python: skip_bad_views=True)",
         .0.join("; ")
     )]
     InconsistentViews(Vec<String>),
