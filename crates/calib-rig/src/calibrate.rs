@@ -32,6 +32,8 @@ struct CameraStart {
     /// Points rejected by its own calibration, per frame.
     rejected: BTreeMap<usize, Vec<usize>>,
     method: String,
+    /// Views (frame indices) its own checks left out with `skip_bad_views`.
+    skipped: Vec<calib_core::SkippedView>,
 }
 
 /// Checks the file: cameras and frames present, observations naming existing cameras at most once
@@ -205,7 +207,9 @@ fn start_camera(
             camera: input.name.clone(),
             source: CalibrationError::InvalidOption(e),
         })?;
-    camera_options.skip_bad_views = false;
+    // A view that fails the camera's own checks (points that fit no homography, pixels outside
+    // the image) is left out of the rig with skip_bad_views, as calib single leaves it out.
+    camera_options.skip_bad_views = options.camera.skip_bad_views;
     camera_options.drop_duplicate_views = false;
     if let Some(g) = given {
         camera_options.intrinsic_guess = Some(g.intrinsics);
@@ -226,6 +230,7 @@ fn start_camera(
         prepared.start_method.name().to_string()
     };
     let frames: Vec<usize> = prepared.views.iter().map(|(f, _)| *f).collect();
+    let skipped = prepared.skipped.clone();
     let mut solve = camera_options.solve_options();
     solve.rotation = options.rotation;
     solve.outliers = options.outliers;
@@ -250,6 +255,7 @@ fn start_camera(
             .zip(solution.rejected.iter().cloned())
             .collect(),
         method,
+        skipped,
     })
 }
 
@@ -674,11 +680,54 @@ pub fn calibrate_rig(
     };
     let n = observations.cameras.len();
     // The graph first: a disconnected rig is refused before any camera is calibrated.
-    let tree = camera_tree(observations, options)?;
+    let mut tree = camera_tree(observations, options)?;
     let starts: Vec<CameraStart> = (0..n)
         .map(|c| start_camera(observations, options, c))
         .collect::<Result<_, _>>()?;
     let per_camera = start.elapsed();
+    // Views a camera's own checks left out (skip_bad_views) leave the rig too: in the joint
+    // stage they would be views without a start, most of whose points miss.
+    let skipped: Vec<(usize, usize, &str)> = starts
+        .iter()
+        .enumerate()
+        .flat_map(|(c, s)| {
+            s.skipped
+                .iter()
+                .map(move |v| (v.index, c, v.reason.as_str()))
+        })
+        .collect();
+    let checked;
+    let observations = if skipped.is_empty() {
+        observations
+    } else {
+        let described: Vec<String> = skipped
+            .iter()
+            .map(|&(f, c, reason)| {
+                let reason = reason
+                    .strip_prefix(&format!("view {f}: "))
+                    .unwrap_or(reason);
+                format!(
+                    "frame {f}, camera '{}': {reason}",
+                    observations.cameras[c].name
+                )
+            })
+            .collect();
+        warnings.push(Warning::new(
+            WarningCode::InconsistentView,
+            format!(
+                "views left out by their camera's own checks: {}",
+                described.join("; ")
+            ),
+        ));
+        let mut copy = observations.clone();
+        for &(f, c, _) in &skipped {
+            copy.frames[f].observations.retain(|o| o.camera != c);
+        }
+        checked = copy;
+        // Without those views a camera may lose its ties to the rest.
+        tree = camera_tree(&checked, options)?;
+        &checked
+    };
     let mut transforms = initial_transforms(observations, &starts, &tree)?;
     repair_transforms(observations, &starts, &mut transforms, &tree);
 

@@ -399,3 +399,36 @@ fn a_view_from_another_frame_is_named() {
         assert!(kept.views.iter().all(|v| v.camera != camera));
     }
 }
+
+/// A view that fails its camera's own checks (its pixels scrambled against its board points: no
+/// homography fits) is refused naming the camera, and --skip-bad-views leaves it out
+/// as calib single does. The rig set its cameras' skip_bad_views to false, so the option did
+/// nothing there and the calibration stopped all the same.
+#[test]
+fn a_view_failing_its_cameras_checks_is_skipped_on_request() {
+    let mut data = rig(4, 40);
+    let frame = view_with_two_others(&data, 1);
+    let view = view_mut(&mut data, frame, 1);
+    // The pixels scrambled: point i gets the pixel of point 17 i (mod 54).
+    let pixels = view.image_points.clone();
+    let n = pixels.len();
+    view.image_points = (0..n).map(|i| pixels[i * 17 % n]).collect();
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    assert!(
+        matches!(&error, RigError::Camera { camera, .. } if camera == "cam1"),
+        "{error}"
+    );
+    let mut options = RigOptions::default();
+    options.camera.skip_bad_views = true;
+    let result = calibrate_rig(&data.observations, &options).unwrap();
+    assert!(result.rms < 0.3, "{}", result.rms);
+    assert!(
+        result.warnings.iter().any(|w| w
+            .message
+            .contains(&format!("frame {frame}, camera 'cam1': "))),
+        "{:?}",
+        result.warnings
+    );
+    let kept = result.frames.iter().find(|f| f.index == frame).unwrap();
+    assert!(kept.views.iter().all(|v| v.camera != 1));
+}
