@@ -703,9 +703,6 @@ pub fn calibrate_rig(
         let described: Vec<String> = skipped
             .iter()
             .map(|&(f, c, reason)| {
-                let reason = reason
-                    .strip_prefix(&format!("view {f}: "))
-                    .unwrap_or(reason);
                 format!(
                     "frame {f}, camera '{}': {reason}",
                     observations.cameras[c].name

@@ -34,8 +34,9 @@ pub enum RigError {
         /// Frames needed.
         needed: usize,
     },
-    /// The per-camera calibration that starts a camera failed.
-    #[error("initial calibration of camera '{camera}': {source}")]
+    /// The per-camera calibration that starts a camera failed. An error about one view's input
+    /// reads `frame 7, camera 'front': ...` (its view index is the frame index).
+    #[error("{}", camera_failure(.camera, .source))]
     Camera {
         /// The camera.
         camera: String,
@@ -65,4 +66,13 @@ pub enum RigError {
     /// The joint optimization failed (the message names cameras and frames).
     #[error("{0}")]
     Joint(CalibrationError),
+}
+
+/// A [`RigError::Camera`]'s message: `frame 7, camera 'front': ...` for an error about one view,
+/// else `initial calibration of camera 'front': ...`.
+fn camera_failure(camera: &str, source: &CalibrationError) -> String {
+    match source.view() {
+        Some(frame) => format!("frame {frame}, camera '{camera}': {}", source.detail()),
+        None => format!("initial calibration of camera '{camera}': {source}"),
+    }
 }
