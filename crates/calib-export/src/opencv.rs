@@ -29,7 +29,8 @@
 //! A stereo rig uses the names of OpenCV's `stereo_calib` sample (`M1`, `D1`, `M2`, `D2`, `R`,
 //! `T`) plus `E`, `F` and the rectification `R1`, `R2`, `P1`, `P2`, `Q`
 //! ([`crate::rectify::stereo_rectify`] with the export's `alpha`), and `distortion_model_1`,
-//! `distortion_model_2`.
+//! `distortion_model_2`. Cameras of different image sizes add `image_width_2`,
+//! `image_height_2` and leave out the rectification (OpenCV's `stereoRectify` takes one size).
 //!
 //! A rig of N cameras (OpenCV has no layout of its own for it) is one map per camera,
 //! `camera_0 ... camera_{N-1}`, each with the single camera's keys, its `name`, and `R`, `T`:
@@ -125,7 +126,13 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             matrix(&mut out, "distortion_coefficients", 1, d.len(), d)?;
         }
         Calibrated::Stereo(s) => {
-            let rect = stereo_rectify(s, options.alpha)?;
+            // OpenCV rectifies two images of one size (stereoRectify takes one imageSize): for
+            // cameras of different sizes the file holds the calibration without R1..Q.
+            let rect = if s.right.image_size == s.left.image_size {
+                Some(stereo_rectify(s, options.alpha)?)
+            } else {
+                None
+            };
             let scale = options.translation_scale;
             let scaled = scaled_rig(s, scale);
             let _ = writeln!(out, "image_width: {}", s.left.image_size.width);
@@ -146,17 +153,19 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             matrix(&mut out, "T", 3, 1, scaled.translation.as_slice())?;
             matrix(&mut out, "E", 3, 3, &row_major(&scaled.essential()))?;
             matrix(&mut out, "F", 3, 3, &row_major(&s.fundamental()))?;
-            let mut p2 = rect.p2;
-            p2[(0, 3)] *= scale;
-            p2[(1, 3)] *= scale;
-            let mut q = rect.q;
-            q[(3, 2)] /= scale;
-            q[(3, 3)] /= scale;
-            matrix(&mut out, "R1", 3, 3, &row_major(&rect.r1))?;
-            matrix(&mut out, "R2", 3, 3, &row_major(&rect.r2))?;
-            matrix(&mut out, "P1", 3, 4, &row_major(&rect.p1))?;
-            matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
-            matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
+            if let Some(rect) = rect {
+                let mut p2 = rect.p2;
+                p2[(0, 3)] *= scale;
+                p2[(1, 3)] *= scale;
+                let mut q = rect.q;
+                q[(3, 2)] /= scale;
+                q[(3, 3)] /= scale;
+                matrix(&mut out, "R1", 3, 3, &row_major(&rect.r1))?;
+                matrix(&mut out, "R2", 3, 3, &row_major(&rect.r2))?;
+                matrix(&mut out, "P1", 3, 4, &row_major(&rect.p1))?;
+                matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
+                matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
+            }
         }
         Calibrated::Rig(r) => {
             let _ = writeln!(out, "rig_cameras: {}", r.cameras.len());

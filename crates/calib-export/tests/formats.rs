@@ -192,6 +192,40 @@ fn opencv_stereo_file_has_the_rectification_and_epipolar_matrices() {
     assert!(constraint.abs() < 1e-12 * e.norm(), "{constraint}");
 }
 
+/// Cameras of different image sizes (a rig pair, `--right-image`): the OpenCV file holds both
+/// sizes and the calibration, without the rectification (OpenCV rectifies one size), and reads
+/// back; before, the export was refused.
+#[test]
+fn opencv_stereo_file_of_two_image_sizes_has_both_sizes_and_no_rectification() {
+    let mut r = rig(CameraModel::BrownConrady5, CameraModel::KannalaBrandt4);
+    r.right.image_size = ImageSize::new(800, 600);
+    let original = Calibrated::Stereo(r.clone());
+    let texts = export_texts(&original, Format::OpenCv, &ExportOptions::default()).unwrap();
+    let text = &texts[0];
+    assert!(
+        text.contains("\nimage_width_2: 800\nimage_height_2: 600\n"),
+        "{text}"
+    );
+    for key in ["M1", "D1", "M2", "D2", "R", "T", "E", "F"] {
+        assert!(
+            text.contains(&format!("\n{key}: !!opencv-matrix\n")),
+            "{key}"
+        );
+    }
+    for key in ["R1", "R2", "P1", "P2", "Q"] {
+        assert!(!text.contains(&format!("\n{key}: ")), "{key}");
+    }
+    match read_back(Format::OpenCv, &original, &texts) {
+        Calibrated::Stereo(back) => {
+            same_camera(&back.left, &r.left, "left");
+            same_camera(&back.right, &r.right, "right");
+            assert_eq!(back.rotation, r.rotation);
+            assert_eq!(back.translation, r.translation);
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn translation_scale_converts_units_for_kalibr_and_ros() {
     let r = rig(CameraModel::BrownConrady4, CameraModel::BrownConrady4);
