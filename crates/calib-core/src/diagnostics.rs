@@ -188,7 +188,12 @@ pub fn duplicates_warning(kind: &str, pairs: &[(usize, usize)]) -> Warning {
 /// The `model-invalid` warning for `model` with `validity` (not covering the image with
 /// [`VALIDITY_MARGIN`]): whether the fold is inside the image or within the margin beyond it,
 /// and what to do.
-fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str]) -> String {
+fn model_invalid_message(
+    model: CameraModel,
+    validity: &Validity,
+    free: &[&str],
+    camera: Option<&str>,
+) -> String {
     // `coverage` compares each ray's fold with the border along the same ray; the nearest fold
     // and the farthest corner may lie in different directions.
     let (place, consequence) = if validity.coverage < 1.0 {
@@ -203,11 +208,11 @@ fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str])
     let remedy = match (model, free) {
         (CameraModel::KannalaBrandt4, [.., a, b]) => format!(
             "hold the higher coefficients fixed ({}) or add views with the board near the image corners",
-            hold_advice(&[&[b], &[a, b]])
+            hold_advice(&[&[b], &[a, b]], camera)
         ),
         (CameraModel::KannalaBrandt4, [b]) => format!(
             "hold the higher coefficients fixed ({}) or add views with the board near the image corners",
-            hold_advice(&[&[b]])
+            hold_advice(&[&[b]], camera)
         ),
         _ => "use a model with fewer terms or add views with the board near the image corners"
             .to_string(),
@@ -233,11 +238,14 @@ fn model_invalid_message(model: CameraModel, validity: &Validity, free: &[&str])
 /// How to hold coefficients fixed, in both front ends: each of `choices` (alternatives, each a
 /// set of names) as the command line's `--fix` and as the Python functions' `fix=`, e.g.
 /// "--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4']". The messages are shared by
-/// `calib` and the Python package.
-fn hold_advice(choices: &[&[&str]]) -> String {
+/// `calib` and the Python package. In a stereo rig or rig (`camera` given) the command line
+/// holds a coefficient in one camera as `--fix NAME=k4` (a plain `--fix k4` holds it in every
+/// camera); Python's `fix=` holds it in every camera whose model has it, which the advice says.
+fn hold_advice(choices: &[&[&str]], camera: Option<&str>) -> String {
+    let prefix = camera.map_or_else(String::new, |name| format!("{name}="));
     let cli: Vec<String> = choices
         .iter()
-        .map(|names| format!("--fix {}", names.join(",")))
+        .map(|names| format!("--fix {prefix}{}", names.join(",")))
         .collect();
     let python: Vec<String> = choices
         .iter()
@@ -246,13 +254,22 @@ fn hold_advice(choices: &[&[&str]]) -> String {
             format!("fix=[{}]", quoted.join(", "))
         })
         .collect();
-    format!("{}; Python: {}", cli.join(" or "), python.join(" or "))
+    let every = if camera.is_some() {
+        " (in every camera whose model has them)"
+    } else {
+        ""
+    };
+    format!(
+        "{}; Python: {}{every}",
+        cli.join(" or "),
+        python.join(" or ")
+    )
 }
 
 /// What to do about distortion coefficients the data does not determine, for `model`: a model
 /// with fewer terms of the same kind where there is one, else holding the undetermined
 /// coefficients `loose` fixed (those the run did not hold already, in the model's order).
-fn fewer_terms_advice(model: CameraModel, loose: &[&str]) -> String {
+fn fewer_terms_advice(model: CameraModel, loose: &[&str], camera: Option<&str>) -> String {
     match model {
         CameraModel::ThinPrism12 => {
             "use a model with fewer terms (rational8, brown-conrady5 or brown-conrady4) or add views covering the image".into()
@@ -264,9 +281,9 @@ fn fewer_terms_advice(model: CameraModel, loose: &[&str]) -> String {
         CameraModel::BrownConrady4 | CameraModel::KannalaBrandt4 => {
             // The highest loose coefficient first, then the two highest.
             let hold = match loose {
-                [] => format!("e.g. {}", hold_advice(&[&["k2"]])),
-                [one] => hold_advice(&[&[one]]),
-                [.., a, b] => hold_advice(&[&[b], &[a, b]]),
+                [] => format!("e.g. {}", hold_advice(&[&["k2"]], camera)),
+                [one] => hold_advice(&[&[one]], camera),
+                [.., a, b] => hold_advice(&[&[b], &[a, b]], camera),
             };
             let reach = if model.is_fisheye() { ", out to its corners" } else { "" };
             format!("hold the undetermined coefficients fixed ({hold}) or add views covering the image{reach}")
@@ -394,7 +411,8 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                             .skip(4)
                             .filter(|(i, _)| !spec.fixed.contains(i))
                             .map(|(_, name)| name)
-                            .collect::<Vec<_>>()
+                            .collect::<Vec<_>>(),
+                        several.then_some(spec.name.as_str()),
                     )
                 ),
             ));
@@ -443,6 +461,7 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                         .copied()
                         .filter(|n| names[4..].contains(n))
                         .collect::<Vec<_>>(),
+                    several.then_some(spec.name.as_str()),
                 );
                 let (them, their) = if loose.len() > 1 {
                     (
@@ -564,12 +583,23 @@ mod tests {
             coverage,
             limit_px: [None; camera_model::validity::VALIDITY_RAYS],
         };
-        let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67), &[]);
+        // In a stereo rig or rig, the camera's name goes into --fix.
+        let folded = model_invalid_message(
+            CameraModel::KannalaBrandt4,
+            &validity(0.95),
+            &["k1", "k2", "k3", "k4"],
+            Some("right"),
+        );
+        assert!(
+            folded.contains("--fix right=k4 or --fix right=k3,k4"),
+            "{folded}"
+        );
+        let inside = model_invalid_message(CameraModel::Rational8, &validity(0.67), &[], None);
         assert!(
             inside.contains("inside the image") && inside.contains("at 67% of the distance"),
             "{inside}"
         );
-        let outside = model_invalid_message(CameraModel::ThinPrism12, &validity(1.03), &[]);
+        let outside = model_invalid_message(CameraModel::ThinPrism12, &validity(1.03), &[], None);
         assert!(
             outside.contains("just outside the image") && outside.contains("105% is checked"),
             "{outside}"
@@ -583,14 +613,20 @@ mod tests {
             );
         }
         let all = ["k1", "k2", "k3", "k4"];
-        let fisheye = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all);
+        let fisheye =
+            model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all, None);
         assert!(
             fisheye.contains("(--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4'])")
                 && !fisheye.contains("not to be trusted"),
             "{fisheye}"
         );
         // With k4 held already, the advice goes on from the highest free one.
-        let held = model_invalid_message(CameraModel::KannalaBrandt4, &validity(0.95), &all[..3]);
+        let held = model_invalid_message(
+            CameraModel::KannalaBrandt4,
+            &validity(0.95),
+            &all[..3],
+            None,
+        );
         assert!(
             held.contains("(--fix k3 or --fix k2,k3; Python: fix=['k3'] or fix=['k2', 'k3'])"),
             "{held}"
@@ -607,7 +643,7 @@ mod tests {
             CameraModel::ThinPrism12,
             CameraModel::KannalaBrandt4,
         ] {
-            let advice = fewer_terms_advice(model, &["k3", "k4"]);
+            let advice = fewer_terms_advice(model, &["k3", "k4"], None);
             // Never the model itself, never a model with more terms, never a pinhole model for
             // the fisheye.
             for other in [
@@ -628,16 +664,25 @@ mod tests {
         }
         // Holding names what is loose and not held yet (with --fix k4 given, k3 alone is left).
         assert!(
-            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3", "k4"])
+            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3", "k4"], None)
                 .contains("(--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4'])")
         );
         assert!(
-            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3"])
+            fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3"], None)
                 .contains("(--fix k3; Python: fix=['k3'])")
         );
         assert!(
-            fewer_terms_advice(CameraModel::BrownConrady4, &["k2"])
+            fewer_terms_advice(CameraModel::BrownConrady4, &["k2"], None)
                 .contains("--fix k2; Python: fix=['k2']")
+        );
+        // In a stereo rig or rig the command line holds it in the one camera (a plain --fix
+        // would hold it in every camera).
+        let in_rig = fewer_terms_advice(CameraModel::KannalaBrandt4, &["k3", "k4"], Some("fish"));
+        assert!(
+            in_rig.contains(
+                "(--fix fish=k4 or --fix fish=k3,k4; Python: fix=['k4'] or fix=['k3', 'k4'] (in every camera whose model has them))"
+            ),
+            "{in_rig}"
         );
     }
 
