@@ -819,7 +819,50 @@ pub fn calibrate_rig(
     solve.loss = options.loss;
     solve.outliers = options.outliers;
     let joint_start = Instant::now();
-    let mut solution = calib_core::solve(&problem, &solve).map_err(RigError::Joint)?;
+    let mut solution = match calib_core::solve(&problem, &solve) {
+        Ok(solution) => solution,
+        // Views that mostly miss the rig's model, with skip_bad_views: their frames go (a view
+        // that contradicts the others of its frame pulls the frame's pose, and then its
+        // innocent neighbours miss: which of them is wrong the joint stage cannot tell) and the
+        // rig is calibrated again without them, as calib stereo leaves out a pair.
+        Err(e @ CalibrationError::MostlyOutliers { .. }) if options.camera.skip_bad_views => {
+            let frames: std::collections::BTreeSet<usize> = e
+                .views_to_skip(problem.observations.len())
+                .into_iter()
+                .map(|o| frame_index[problem.observations[o].frame])
+                .collect();
+            let mut copy = observations.clone();
+            for &f in &frames {
+                copy.frames[f].observations.clear();
+            }
+            let listed: Vec<String> = frames.iter().map(|f| format!("frame {f}")).collect();
+            warnings.push(Warning::new(
+                WarningCode::InconsistentView,
+                format!(
+                    "{} left out: {} views disagree with the rig's model ({e}); views of one frame that contradict each other (corners numbered a row off, a view from another moment) pull the frame's pose, so the whole frame goes",
+                    listed.join(", "),
+                    if frames.len() > 1 { "their" } else { "its" }
+                ),
+            ));
+            let mut result = calibrate_rig(&copy, options)?;
+            for w in std::mem::take(&mut result.warnings) {
+                if !warnings.iter().any(|k| k.message == w.message) {
+                    warnings.push(w);
+                }
+            }
+            result.warnings = warnings;
+            result.elapsed = start.elapsed();
+            return Ok(result);
+        }
+        Err(e) => {
+            return Err(frames_that_contradict(
+                &problem,
+                &frame_index,
+                observations,
+                e,
+            ));
+        }
+    };
     warnings.append(&mut solution.warnings);
     solution.warnings = warnings;
     let joint = joint_start.elapsed();
@@ -834,6 +877,60 @@ pub fn calibrate_rig(
         [per_camera, joint],
         start,
     ))
+}
+
+/// The rig's reading of a joint-stage error. Views past the outlier limit that share a frame
+/// (every view of a frame where one of them, its corners numbered a row off,
+/// pulled the frame's pose) are a frame whose views contradict each other, reported per frame as
+/// [`RigError::InconsistentViews`]: the engine's error named the first of them in input order,
+/// most likely a correct one.
+fn frames_that_contradict(
+    problem: &JointProblem,
+    frame_index: &[usize],
+    observations: &RigObservations,
+    error: CalibrationError,
+) -> RigError {
+    let CalibrationError::MostlyOutliers {
+        observation,
+        rejected,
+        points,
+        ref also,
+        ..
+    } = error
+    else {
+        return RigError::Joint(error);
+    };
+    let mut past: BTreeMap<usize, Vec<(usize, usize, usize)>> = BTreeMap::new();
+    for (o, rejected, points) in std::iter::once((observation, rejected, points))
+        .chain(also.iter().map(|v| (v.observation, v.rejected, v.points)))
+    {
+        let spec = &problem.observations[o];
+        past.entry(frame_index[spec.frame])
+            .or_default()
+            .push((spec.camera, rejected, points));
+    }
+    if past.values().all(|views| views.len() < 2) {
+        return RigError::Joint(error);
+    }
+    let name = |c: usize| format!("'{}'", observations.cameras[c].name);
+    RigError::InconsistentViews(
+        past.iter()
+            .map(|(f, views)| {
+                let listed: Vec<String> = views
+                    .iter()
+                    .map(|&(c, r, n)| format!("{} ({r} of {n} points)", name(c)))
+                    .collect();
+                if let [one] = &listed[..] {
+                    format!("frame {f}: the view of camera {one} misses the rig's model")
+                } else {
+                    format!(
+                        "frame {f}: the views of cameras {} miss the rig's model: one of them places the board differently from the others (corners numbered a row off?) and pulls the frame's pose",
+                        listed.join(", ")
+                    )
+                }
+            })
+            .collect(),
+    )
 }
 
 #[allow(clippy::too_many_arguments)]

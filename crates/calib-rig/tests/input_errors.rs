@@ -439,3 +439,49 @@ fn a_view_failing_its_cameras_checks_is_skipped_on_request() {
     let kept = result.frames.iter().find(|f| f.index == frame).unwrap();
     assert!(kept.views.iter().all(|v| v.camera != 1));
 }
+
+/// A view whose corners are numbered two rows off (the corner list starts at the third row): a
+/// valid view of a board shifted by two squares, which neither its camera's own checks nor the
+/// rig's rotation and position checks catch. In the joint stage it pulls its frame's pose and
+/// the frame's correct views miss: the error names a view of that frame, and with
+/// `skip_bad_views` the frame is left out and the rest calibrated (the joint stage had no such
+/// retry, and the option did nothing there).
+#[test]
+fn a_frame_whose_views_contradict_each_other_is_left_out_on_request() {
+    let mut data = rig(4, 40);
+    let frame = view_with_two_others(&data, 1);
+    let view = view_mut(&mut data, frame, 1);
+    let first_y = view.object_points[0].y;
+    let row = view
+        .object_points
+        .iter()
+        .take_while(|p| p.y == first_y)
+        .count();
+    let n = view.object_points.len();
+    view.image_points.drain(..2 * row);
+    view.object_points.truncate(n - 2 * row);
+    // Named as the frame whose views contradict each other (the engine named the first view
+    // past the limit, a correct one of another camera).
+    match calibrate_rig(&data.observations, &RigOptions::default()) {
+        Err(e @ RigError::InconsistentViews(_)) => assert!(
+            e.to_string()
+                .contains(&format!("frame {frame}: the views of cameras ")),
+            "{e}"
+        ),
+        Err(e) => panic!("{e}"),
+        Ok(r) => panic!("accepted: rms {}", r.rms),
+    }
+    let mut options = RigOptions::default();
+    options.camera.skip_bad_views = true;
+    let result = calibrate_rig(&data.observations, &options).unwrap();
+    assert!(result.rms < 0.3, "{}", result.rms);
+    assert!(
+        result
+            .warnings
+            .iter()
+            .any(|w| w.message.starts_with(&format!("frame {frame} left out: "))),
+        "{:?}",
+        result.warnings
+    );
+    assert!(result.frames.iter().all(|f| f.index != frame));
+}
