@@ -92,7 +92,9 @@ fn observation(
 /// default). ``names``: camera names (default cam0, cam1, ...). ``reference``: the camera whose
 /// frame is the rig's (index or name). ``known``: ``{camera: (K, dist)}`` for cameras whose
 /// intrinsics are known and held. ``fix`` and the solver settings as in
-/// :func:`calibrate_camera`; the rotation parameterization defaults to "so3".
+/// :func:`calibrate_camera` (a coefficient name holds it in every camera whose model has it);
+/// ``fix={camera: names}`` holds coefficients of one camera each (``fix={'fish': ['k4']}``, as
+/// ``calib rig --fix fish=k4``). The rotation parameterization defaults to "so3".
 ///
 /// Returns a :class:`RigCalibration` (unpacks as ``rms, Ks, dists, Rs, Ts``, with
 /// ``X_cam = R X_ref + T``). Raises :class:`CalibrationError` naming the camera and frame. The
@@ -287,9 +289,37 @@ fn calibrate_rig_py(
     }
 
     // Flags ("principal_point", ...) apply to every camera, coefficient names to every camera
-    // whose model has them, as `calib rig --fix`.
+    // whose model has them, as `calib rig --fix`; a dict holds coefficients of one camera each,
+    // as `calib rig --fix NAME=k3,k4`.
     let mut camera = options::camera_options(first, &[], None, None, &common, "")?;
-    let fix = options::fix_names(fix, "fix")?;
+    let mut hold_by_camera: Vec<Vec<String>> = vec![Vec::new(); names.len()];
+    let fix = match fix.filter(|f| !f.is_none()).map(|f| f.cast::<PyDict>()) {
+        Some(Ok(per_camera)) => {
+            for (key, value) in per_camera.iter() {
+                let c = camera_key(&key, &names, "fix")?;
+                let what = format!("fix['{}']", names[c]);
+                let held = options::fix_names(Some(&value), &what)?;
+                if let Some(flag) = held.iter().find(|n| options::is_fix_flag(n)) {
+                    return Err(PyValueError::new_err(format!(
+                        "{what}: '{flag}' holds it in every camera; per camera, fix holds distortion coefficients (give flags as a list: fix=['{flag}'])"
+                    )));
+                }
+                let model = per_camera_models[c].unwrap_or_default();
+                if let Some(unknown) = held
+                    .iter()
+                    .find(|n| !model.distortion_names().contains(&n.as_str()))
+                {
+                    return Err(PyValueError::new_err(format!(
+                        "{what}: the {model} model has no coefficient '{unknown}' (it has {})",
+                        model.distortion_names().join(", ")
+                    )));
+                }
+                hold_by_camera[c].extend(held);
+            }
+            Vec::new()
+        }
+        _ => options::fix_names(fix, "fix")?,
+    };
     let models: Vec<CameraModel> = per_camera_models
         .iter()
         .map(|m| m.unwrap_or_default())
@@ -313,6 +343,7 @@ fn calibrate_rig_py(
         opts.given = given;
     }
     opts.hold_fixed = coefficients;
+    opts.hold_fixed_by_camera = hold_by_camera;
     opts.models = per_camera_models.clone();
     camera.skip_bad_views = skip_bad_views;
     opts.solver = camera.solver.clone();

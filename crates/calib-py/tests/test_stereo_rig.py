@@ -123,6 +123,27 @@ def test_rig_bit_for_bit_with_the_calib_command(calib_cli, tmp_path):
     assert result.std[1].shape == (8,) and result.transform_std[0].tolist() == [0.0] * 6
 
 
+def test_rig_holds_coefficients_per_camera(calib_cli, tmp_path):
+    # fix={camera: names} is `calib rig --fix NAME=...`: the same numbers bit for bit.
+    path = tmp_path / "rig.json"
+    path.write_text(json.dumps(rig_file("sourishg1/stereo.json")))
+    expected = calib_cli("rig", path, "--no-outlier-rejection", "--fix", "right=k2")
+    obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
+    frames = [{0: l, 1: r} for l, r in zip(left, right)]
+    result = calib.calibrate_rig([size, size], obj, frames, names=["left", "right"],
+                                 fix={"right": ["k2"]})
+    assert strip(json.loads(result.to_json())) == strip(expected)
+    dists = result.dists
+    assert np.ravel(dists[1])[1] == 0.0 and np.ravel(dists[0])[1] != 0.0
+    with pytest.raises(ValueError, match=r"fix\['right'\]: the brown-conrady4 model has no coefficient 'k5'"):
+        calib.calibrate_rig([size, size], obj, frames, names=["left", "right"], fix={1: "k5"})
+    with pytest.raises(ValueError, match=r"fix\['left'\]: 'principal_point' holds it in every camera"):
+        calib.calibrate_rig([size, size], obj, frames, names=["left", "right"],
+                            fix={"left": ["principal_point"]})
+    with pytest.raises(ValueError, match="fix: no camera named 'middle'"):
+        calib.calibrate_rig([size, size], obj, frames, names=["left", "right"], fix={"middle": "k2"})
+
+
 def test_rig_partial_views_and_missing_cameras():
     obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
     frames = []
