@@ -11,7 +11,9 @@
 //! point is re-tested each round, so a point rejected early (or suspected by the robust
 //! homography) comes back when the calibrated model fits it. A view that loses more than half of
 //! its points in the final rejected set is not a view with a few bad corners but a wrong one, and
-//! is reported.
+//! is reported. Before a further round, a view past that limit has its pose refitted alone,
+//! robustly, with the cameras held (its own stray corners may have pulled it; `solve.rs`,
+//! `refit_poses`).
 //!
 //! Cost: one extra solve, warm-started from the previous solution (a few iterations), per round
 //! in which the rejected set changes; none on clean data.
