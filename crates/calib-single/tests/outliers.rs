@@ -333,20 +333,30 @@ fn wrong_board_size(view: &mut calib_single::View) {
 /// Three stray corners 42 px off (30 px in x and y) in every view: where the homography does not
 /// flag them, the first solve's pose of that view follows them and most of its good points
 /// exceed the threshold; rejecting them all left the pose to its worst points and a good view
-/// was refused as mostly outliers (6 of 6 seeds of 1000 views, from 60 views up). A round now
-/// rejects at most half of a view (its worst points), so the pose comes back.
+/// was refused as mostly outliers (6 of 6 seeds of 1000 views, from 60 views up). A round then
+/// rejected at most half of a view (its worst points), but the pulled pose can have the board
+/// tilted the other way, which those rounds do not leave: the last two cases (60 views) were
+/// refused, views 19 and 23 with 45 and 49 of 54 points marked. Such a view's pose is now
+/// refitted alone, robustly and from its own points' consensus, before the next round.
 #[test]
 fn stray_corners_in_every_view_do_not_refuse_a_good_view() {
     let mut failures = Vec::new();
-    for seed in 0..3u64 {
+    // (generator seed, views, seed of the moves)
+    for (seed, views, moves) in [
+        (40, 120, 1),
+        (41, 120, 2),
+        (42, 120, 3),
+        (0, 60, 1),
+        (43, 60, 44),
+    ] {
         let config = SyntheticConfig {
-            views: 120,
-            seed: 40 + seed,
+            views,
+            seed,
             ..Default::default()
         };
         let set = generate(&config).unwrap();
         let mut obs = set.observations.clone();
-        let mut rng = Rng::new(seed + 1);
+        let mut rng = Rng::new(moves);
         for view in &mut obs.views {
             let n = view.image_points.len();
             let mut moved = Vec::new();
@@ -369,13 +379,13 @@ fn stray_corners_in_every_view_do_not_refuse_a_good_view() {
                 assert!(r.skipped_views.is_empty());
                 // The strays and hardly anything else.
                 assert!(
-                    (360..=370).contains(&r.num_rejected),
+                    (3 * views..=3 * views + 10).contains(&r.num_rejected),
                     "seed {seed}: {} rejected",
                     r.num_rejected
                 );
                 assert!((r.rms - 0.2 * 2f64.sqrt()).abs() < 0.03, "rms {}", r.rms);
             }
-            Err(e) => failures.push(format!("seed {seed}: {e}")),
+            Err(e) => failures.push(format!("seed {seed}, {views} views: {e}")),
         }
     }
     assert!(failures.is_empty(), "{failures:?}");
