@@ -475,11 +475,14 @@ fn a_frame_whose_views_contradict_each_other_is_left_out_on_request() {
     options.camera.skip_bad_views = true;
     let result = calibrate_rig(&data.observations, &options).unwrap();
     assert!(result.rms < 0.3, "{}", result.rms);
+    // The frame goes (with the outlier pose refit, camera 1's view of another frame, past the
+    // limit in the same round after the bad view pulled that camera, goes with it).
     assert!(
-        result
-            .warnings
-            .iter()
-            .any(|w| w.message.starts_with(&format!("frame {frame} left out: "))),
+        result.warnings.iter().any(|w| w
+            .message
+            .split(" left out: ")
+            .next()
+            .is_some_and(|frames| frames.split(", ").any(|f| f == format!("frame {frame}")))),
         "{:?}",
         result.warnings
     );
