@@ -310,6 +310,21 @@ fn view_mut(
         .view
 }
 
+/// The rig calibrated with `skip_bad_views`, at the noise level (RMS below 0.3 px).
+fn calibrated_skipping_bad_views(observations: &RigObservations) -> calib_rig::RigCalibration {
+    let mut options = RigOptions::default();
+    options.camera.skip_bad_views = true;
+    let result = calibrate_rig(observations, &options).unwrap();
+    assert!(result.rms < 0.3, "{}", result.rms);
+    result
+}
+
+/// Asserts that `result` kept no view of `camera` in `frame`.
+fn view_left_out(result: &calib_rig::RigCalibration, frame: usize, camera: usize) {
+    let kept = result.frames.iter().find(|f| f.index == frame).unwrap();
+    assert!(kept.views.iter().all(|v| v.camera != camera));
+}
+
 /// Asserts that `data` is refused naming only `camera` in `frame` by its position, and that
 /// `--skip-bad-views` leaves that view out and calibrates the rest.
 fn only_that_view_is_named(
@@ -327,13 +342,9 @@ fn only_that_view_is_named(
         "{message}"
     );
     assert_eq!(message.matches("camera '").count(), 1, "{message}");
-    let mut options = RigOptions::default();
-    options.camera.skip_bad_views = true;
-    let result = calibrate_rig(&data.observations, &options).unwrap();
-    assert!(result.rms < 0.3, "{}", result.rms);
+    let result = calibrated_skipping_bad_views(&data.observations);
     assert_eq!(result.num_rejected, 0);
-    let kept = result.frames.iter().find(|f| f.index == frame).unwrap();
-    assert!(kept.views.iter().all(|v| v.camera != camera));
+    view_left_out(&result, frame, camera);
 }
 
 /// A view whose board points are in another size (a board of 20 mm squares given as 25 mm) is
@@ -390,13 +401,9 @@ fn a_view_from_another_frame_is_named() {
             && message.contains(&format!("frame {b}: camera 'cam1' sees the board ")),
         "{message}"
     );
-    let mut options = RigOptions::default();
-    options.camera.skip_bad_views = true;
-    let result = calibrate_rig(&data.observations, &options).unwrap();
-    assert!(result.rms < 0.3, "{}", result.rms);
+    let result = calibrated_skipping_bad_views(&data.observations);
     for f in [a, b] {
-        let kept = result.frames.iter().find(|r| r.index == f).unwrap();
-        assert!(kept.views.iter().all(|v| v.camera != camera));
+        view_left_out(&result, f, camera);
     }
 }
 
@@ -425,10 +432,7 @@ fn a_view_failing_its_cameras_checks_is_skipped_on_request() {
             .starts_with(&format!("frame {frame}, camera 'cam1': only ")),
         "{error}"
     );
-    let mut options = RigOptions::default();
-    options.camera.skip_bad_views = true;
-    let result = calibrate_rig(&data.observations, &options).unwrap();
-    assert!(result.rms < 0.3, "{}", result.rms);
+    let result = calibrated_skipping_bad_views(&data.observations);
     assert!(
         result.warnings.iter().any(|w| w
             .message
@@ -436,8 +440,7 @@ fn a_view_failing_its_cameras_checks_is_skipped_on_request() {
         "{:?}",
         result.warnings
     );
-    let kept = result.frames.iter().find(|f| f.index == frame).unwrap();
-    assert!(kept.views.iter().all(|v| v.camera != 1));
+    view_left_out(&result, frame, 1);
 }
 
 /// A view whose corners are numbered two rows off (the corner list starts at the third row): a
@@ -471,10 +474,7 @@ fn a_frame_whose_views_contradict_each_other_is_left_out_on_request() {
         Err(e) => panic!("{e}"),
         Ok(r) => panic!("accepted: rms {}", r.rms),
     }
-    let mut options = RigOptions::default();
-    options.camera.skip_bad_views = true;
-    let result = calibrate_rig(&data.observations, &options).unwrap();
-    assert!(result.rms < 0.3, "{}", result.rms);
+    let result = calibrated_skipping_bad_views(&data.observations);
     // The frame goes (with the outlier pose refit, camera 1's view of another frame, past the
     // limit in the same round after the bad view pulled that camera, goes with it).
     assert!(
