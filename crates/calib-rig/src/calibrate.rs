@@ -826,11 +826,7 @@ pub fn calibrate_rig(
         // innocent neighbours miss: which of them is wrong the joint stage cannot tell) and the
         // rig is calibrated again without them, as calib stereo leaves out a pair.
         Err(e @ CalibrationError::MostlyOutliers { .. }) if options.camera.skip_bad_views => {
-            let frames: std::collections::BTreeSet<usize> = e
-                .views_to_skip(problem.observations.len())
-                .into_iter()
-                .map(|o| frame_index[problem.observations[o].frame])
-                .collect();
+            let frames = frames_to_skip(&problem, &frame_index, &e);
             let mut copy = observations.clone();
             for &f in &frames {
                 copy.frames[f].observations.clear();
@@ -877,6 +873,42 @@ pub fn calibrate_rig(
         [per_camera, joint],
         start,
     ))
+}
+
+/// The input frames a rig that skips bad views leaves out after `error` (a
+/// [`CalibrationError::MostlyOutliers`]): the frames where several views are past the limit
+/// (views that contradict each other: the bad one pulled the frame's pose) when there are such
+/// frames, else the frames of the views `views_to_skip` gives. A view that pulled its frame can
+/// pull its camera too, so that a view of that camera in another frame is past the limit in the
+/// same round; it is kept when the contradicting frame is known.
+fn frames_to_skip(
+    problem: &JointProblem,
+    frame_index: &[usize],
+    error: &CalibrationError,
+) -> std::collections::BTreeSet<usize> {
+    let frame = |o: usize| frame_index[problem.observations[o].frame];
+    if let CalibrationError::MostlyOutliers {
+        observation, also, ..
+    } = error
+    {
+        let past: Vec<usize> = std::iter::once(*observation)
+            .chain(also.iter().map(|v| v.observation))
+            .map(frame)
+            .collect();
+        let contradicting: std::collections::BTreeSet<usize> = past
+            .iter()
+            .copied()
+            .filter(|f| past.iter().filter(|g| *g == f).count() >= 2)
+            .collect();
+        if !contradicting.is_empty() {
+            return contradicting;
+        }
+    }
+    error
+        .views_to_skip(problem.observations.len())
+        .into_iter()
+        .map(frame)
+        .collect()
 }
 
 /// The rig's reading of a joint-stage error. Views past the outlier limit that share a frame
