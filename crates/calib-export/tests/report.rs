@@ -314,9 +314,30 @@ fn projection_uncertainty_matches_monte_carlo() {
 /// The distortion field shows the validity radius of camera_model's check: a lens model that
 /// folds over inside the image gets a red circle and a caption naming the radius; a valid one
 /// says it is one-to-one over the image.
+/// A report of one 640x480 camera named "camera" with `views`, nothing held, no warnings.
+fn one_camera_input(
+    title: &str,
+    camera: camera_model::AnyCamera,
+    views: Vec<calib_export::report::ReportView>,
+) -> ReportInput {
+    ReportInput {
+        title: title.into(),
+        summary: String::new(),
+        warnings: Vec::new(),
+        cameras: vec![calib_export::report::ReportCamera {
+            name: "camera".into(),
+            camera,
+            image_size: calib_core::ImageSize::new(640, 480),
+            fixed: Vec::new(),
+            views,
+        }],
+        layout: None,
+    }
+}
+
 #[test]
 fn distortion_plot_shows_the_validity_radius() {
-    use calib_export::report::{ReportCamera, ReportView};
+    use calib_export::report::ReportView;
     use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
     let dir = std::env::temp_dir().join(format!("calib-export-validity-{}", std::process::id()));
     let report = |k1: f64, name: &str| {
@@ -327,28 +348,20 @@ fn distortion_plot_shows_the_validity_radius() {
         )
         .unwrap();
         let validity = camera.validity(640, 480);
-        let input = ReportInput {
-            title: "validity".into(),
-            summary: String::new(),
-            warnings: Vec::new(),
-            cameras: vec![ReportCamera {
-                name: "camera".into(),
-                camera,
-                image_size: calib_core::ImageSize::new(640, 480),
-                fixed: Vec::new(),
-                views: vec![ReportView {
-                    name: "view".into(),
-                    pose: Pose::new(
-                        nalgebra::Matrix3::identity(),
-                        nalgebra::Vector3::new(0.0, 0.0, 500.0),
-                    ),
-                    rms: 0.1,
-                    points: None,
-                    rejected: Vec::new(),
-                }],
+        let input = one_camera_input(
+            "validity",
+            camera,
+            vec![ReportView {
+                name: "view".into(),
+                pose: Pose::new(
+                    nalgebra::Matrix3::identity(),
+                    nalgebra::Vector3::new(0.0, 0.0, 500.0),
+                ),
+                rms: 0.1,
+                points: None,
+                rejected: Vec::new(),
             }],
-            layout: None,
-        };
+        );
         write_report(&input, &dir.join(name)).unwrap();
         let page = std::fs::read_to_string(dir.join(name).join("index.html")).unwrap();
         let svg = std::fs::read_to_string(dir.join(name).join("distortion-camera.svg")).unwrap();
@@ -489,7 +502,7 @@ fn reports_in_one_folder_never_mix() {
 /// and say so; 1000 views of 400 points made a 75 MB residual plot that no browser shows.
 #[test]
 fn per_corner_plots_are_thinned_for_many_corners() {
-    use calib_export::report::{ReportCamera, ReportView};
+    use calib_export::report::ReportView;
     use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
     let dir = std::env::temp_dir().join(format!("calib-export-thinned-{}", std::process::id()));
     let camera = AnyCamera::new(
@@ -525,19 +538,7 @@ fn per_corner_plots_are_thinned_for_many_corners() {
             rejected: Vec::new(),
         })
         .collect();
-    let input = ReportInput {
-        title: "many corners".into(),
-        summary: String::new(),
-        warnings: Vec::new(),
-        cameras: vec![ReportCamera {
-            name: "camera".into(),
-            camera,
-            image_size: calib_core::ImageSize::new(640, 480),
-            fixed: Vec::new(),
-            views,
-        }],
-        layout: None,
-    };
+    let input = one_camera_input("many corners", camera, views);
     write_report(&input, &dir).unwrap();
     let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
     assert!(
