@@ -886,29 +886,48 @@ fn frames_to_skip(
     frame_index: &[usize],
     error: &CalibrationError,
 ) -> std::collections::BTreeSet<usize> {
-    let frame = |o: usize| frame_index[problem.observations[o].frame];
-    if let CalibrationError::MostlyOutliers {
-        observation, also, ..
-    } = error
-    {
-        let past: Vec<usize> = std::iter::once(*observation)
-            .chain(also.iter().map(|v| v.observation))
-            .map(frame)
+    let contradicting: std::collections::BTreeSet<usize> =
+        past_limit_by_frame(problem, frame_index, error)
+            .into_iter()
+            .filter(|(_, views)| views.len() >= 2)
+            .map(|(f, _)| f)
             .collect();
-        let contradicting: std::collections::BTreeSet<usize> = past
-            .iter()
-            .copied()
-            .filter(|f| past.iter().filter(|g| *g == f).count() >= 2)
-            .collect();
-        if !contradicting.is_empty() {
-            return contradicting;
-        }
+    if !contradicting.is_empty() {
+        return contradicting;
     }
     error
         .views_to_skip(problem.observations.len())
         .into_iter()
-        .map(frame)
+        .map(|o| frame_index[problem.observations[o].frame])
         .collect()
+}
+
+/// The views a [`CalibrationError::MostlyOutliers`] names (the first and the others of its
+/// round), per input frame: `(camera, rejected points, points)`. Empty for other errors.
+fn past_limit_by_frame(
+    problem: &JointProblem,
+    frame_index: &[usize],
+    error: &CalibrationError,
+) -> BTreeMap<usize, Vec<(usize, usize, usize)>> {
+    let mut past: BTreeMap<usize, Vec<(usize, usize, usize)>> = BTreeMap::new();
+    if let CalibrationError::MostlyOutliers {
+        observation,
+        rejected,
+        points,
+        also,
+        ..
+    } = error
+    {
+        for (o, rejected, points) in std::iter::once((*observation, *rejected, *points))
+            .chain(also.iter().map(|v| (v.observation, v.rejected, v.points)))
+        {
+            let spec = &problem.observations[o];
+            past.entry(frame_index[spec.frame])
+                .or_default()
+                .push((spec.camera, rejected, points));
+        }
+    }
+    past
 }
 
 /// The rig's reading of a joint-stage error. Views past the outlier limit that share a frame
@@ -922,25 +941,7 @@ fn frames_that_contradict(
     observations: &RigObservations,
     error: CalibrationError,
 ) -> RigError {
-    let CalibrationError::MostlyOutliers {
-        observation,
-        rejected,
-        points,
-        ref also,
-        ..
-    } = error
-    else {
-        return RigError::Joint(error);
-    };
-    let mut past: BTreeMap<usize, Vec<(usize, usize, usize)>> = BTreeMap::new();
-    for (o, rejected, points) in std::iter::once((observation, rejected, points))
-        .chain(also.iter().map(|v| (v.observation, v.rejected, v.points)))
-    {
-        let spec = &problem.observations[o];
-        past.entry(frame_index[spec.frame])
-            .or_default()
-            .push((spec.camera, rejected, points));
-    }
+    let past = past_limit_by_frame(problem, frame_index, &error);
     if past.values().all(|views| views.len() < 2) {
         return RigError::Joint(error);
     }
