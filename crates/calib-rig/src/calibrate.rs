@@ -517,8 +517,10 @@ pub fn rig_problem(
 
 /// Largest distance between the board positions two views of one frame imply in the reference
 /// camera (the start transforms applied to each camera's own board pose), as a fraction of the
-/// board's distance from the cameras, for the views to count as one moment. Correct views agree
-/// within the per-camera depth errors (a few percent); a view from another moment (one camera's
+/// board's distance from the cameras, for the views to count as one moment, where the joint
+/// stage fails. Correct views agree within the per-camera depth errors: a few percent on good
+/// captures, but up to 70% on weak ones (boards nearly facing the cameras), which is why a
+/// displaced view is only named when the joint stage fails; a view from another moment (one camera's
 /// images numbered one frame off) or with the board's points in the wrong unit or size (a view
 /// of a board scaled by `s` is placed `s` times as far) lies beyond it, while turned by less than
 /// [`MAX_TRANSFORM_DISAGREEMENT_DEG`] when the board moved little between the frames.
@@ -534,6 +536,64 @@ struct Disagreement {
     angle_deg: f64,
     offset: f64,
     fraction: f64,
+}
+
+impl Disagreement {
+    /// The finding in user terms: `frame 6: camera 'rot180' sees the board ... from where the
+    /// rest of the rig puts it`.
+    fn describe(&self, observations: &RigObservations) -> String {
+        let names: Vec<String> = self
+            .cameras
+            .iter()
+            .map(|&c| format!("'{}'", observations.cameras[c].name))
+            .collect();
+        let what = if self.angle_deg > MAX_TRANSFORM_DISAGREEMENT_DEG {
+            format!("the board turned {:.1} degrees", self.angle_deg)
+        } else {
+            format!(
+                "the board {:.1} board units ({:.0}% of its distance) away",
+                self.offset,
+                100.0 * self.fraction
+            )
+        };
+        format!(
+            "frame {}: camera{} {} {} {what} from where the rest of the rig puts it",
+            self.frame,
+            if self.cameras.len() > 1 { "s" } else { "" },
+            names.join(" and "),
+            if self.cameras.len() > 1 {
+                "see"
+            } else {
+                "sees"
+            },
+        )
+    }
+
+    /// The warning for views left out (skip_bad_views).
+    fn left_out(found: &[Disagreement], observations: &RigObservations) -> Warning {
+        Warning::new(
+            WarningCode::InconsistentView,
+            format!(
+                "views left out (corners numbered differently, views from different moments, or a board of another size): {}",
+                found
+                    .iter()
+                    .map(|d| d.describe(observations))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        )
+    }
+
+    /// `observations` without the views `found` names.
+    fn without(found: &[Disagreement], observations: &RigObservations) -> RigObservations {
+        let mut copy = observations.clone();
+        for d in found {
+            copy.frames[d.frame]
+                .observations
+                .retain(|o| !d.cameras.contains(&o.camera));
+        }
+        copy
+    }
 }
 
 /// Views whose own board pose, carried to the reference camera by the start transforms,
@@ -728,55 +788,26 @@ pub fn calibrate_rig(
     let mut transforms = initial_transforms(observations, &starts, &tree)?;
     repair_transforms(observations, &starts, &mut transforms, &tree);
 
-    // Views that contradict the rig: refused, or left out with a warning (skip_bad_views).
-    let inconsistent = inconsistent_views(observations, &starts, &transforms);
+    // Views turned against the rig (corners numbered differently): refused, or left out with a
+    // warning (skip_bad_views). Views that only place the board elsewhere wait for the joint
+    // stage: on weak captures (boards nearly facing the cameras, few views) a camera's own
+    // calibration places the board loosely in depth, and correct views lie up to 70% of their
+    // distance off at the start (`docs/calib-rig.md`, step 5).
+    let (turned, displaced): (Vec<Disagreement>, Vec<Disagreement>) =
+        inconsistent_views(observations, &starts, &transforms)
+            .into_iter()
+            .partition(|d| d.angle_deg > MAX_TRANSFORM_DISAGREEMENT_DEG);
     let filtered;
-    let observations = if inconsistent.is_empty() {
+    let observations = if turned.is_empty() {
         observations
     } else {
-        let name = |c: &usize| format!("'{}'", observations.cameras[*c].name);
-        let describe = |d: &Disagreement| {
-            let names: Vec<String> = d.cameras.iter().map(name).collect();
-            let what = if d.angle_deg > MAX_TRANSFORM_DISAGREEMENT_DEG {
-                format!("the board turned {:.1} degrees", d.angle_deg)
-            } else {
-                format!(
-                    "the board {:.1} board units ({:.0}% of its distance) away",
-                    d.offset,
-                    100.0 * d.fraction
-                )
-            };
-            format!(
-                "frame {}: camera{} {} {} {what} from where the rest of the rig puts it",
-                d.frame,
-                if d.cameras.len() > 1 { "s" } else { "" },
-                names.join(" and "),
-                if d.cameras.len() > 1 { "see" } else { "sees" },
-            )
-        };
         if !options.camera.skip_bad_views {
             return Err(RigError::InconsistentViews(
-                inconsistent.iter().map(describe).collect(),
+                turned.iter().map(|d| d.describe(observations)).collect(),
             ));
         }
-        warnings.push(Warning::new(
-            WarningCode::InconsistentView,
-            format!(
-                "views left out (corners numbered differently, views from different moments, or a board of another size): {}",
-                inconsistent
-                    .iter()
-                    .map(describe)
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            ),
-        ));
-        let mut copy = observations.clone();
-        for d in &inconsistent {
-            copy.frames[d.frame]
-                .observations
-                .retain(|o| !d.cameras.contains(&o.camera));
-        }
-        filtered = copy;
+        warnings.push(Disagreement::left_out(&turned, observations));
+        filtered = Disagreement::without(&turned, observations);
         &filtered
     };
 
@@ -821,6 +852,28 @@ pub fn calibrate_rig(
     let joint_start = Instant::now();
     let mut solution = match calib_core::solve(&problem, &solve) {
         Ok(solution) => solution,
+        // Views placing the board elsewhere than the rest of their frame (another moment, a
+        // board of another size) where the joint stage fails: named, or left out and the rig
+        // calibrated again. The engine's error would name whichever view its rounds reached
+        // first, often a correct one of another camera.
+        Err(_) if !displaced.is_empty() => {
+            if !options.camera.skip_bad_views {
+                return Err(RigError::InconsistentViews(
+                    displaced.iter().map(|d| d.describe(observations)).collect(),
+                ));
+            }
+            warnings.push(Disagreement::left_out(&displaced, observations));
+            let mut result =
+                calibrate_rig(&Disagreement::without(&displaced, observations), options)?;
+            for w in std::mem::take(&mut result.warnings) {
+                if !warnings.iter().any(|k| k.message == w.message) {
+                    warnings.push(w);
+                }
+            }
+            result.warnings = warnings;
+            result.elapsed = start.elapsed();
+            return Ok(result);
+        }
         // Views that mostly miss the rig's model, with skip_bad_views: their frames go (a view
         // that contradicts the others of its frame pulls the frame's pose, and then its
         // innocent neighbours miss: which of them is wrong the joint stage cannot tell) and the
