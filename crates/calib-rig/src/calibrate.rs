@@ -863,16 +863,12 @@ pub fn calibrate_rig(
                 ));
             }
             warnings.push(Disagreement::left_out(&displaced, observations));
-            let mut result =
-                calibrate_rig(&Disagreement::without(&displaced, observations), options)?;
-            for w in std::mem::take(&mut result.warnings) {
-                if !warnings.iter().any(|k| k.message == w.message) {
-                    warnings.push(w);
-                }
-            }
-            result.warnings = warnings;
-            result.elapsed = start.elapsed();
-            return Ok(result);
+            return calibrated_again(
+                &Disagreement::without(&displaced, observations),
+                options,
+                warnings,
+                start,
+            );
         }
         // Views that mostly miss the rig's model, with skip_bad_views: their frames go (a view
         // that contradicts the others of its frame pulls the frame's pose, and then its
@@ -893,15 +889,7 @@ pub fn calibrate_rig(
                     if frames.len() > 1 { "their" } else { "its" }
                 ),
             ));
-            let mut result = calibrate_rig(&copy, options)?;
-            for w in std::mem::take(&mut result.warnings) {
-                if !warnings.iter().any(|k| k.message == w.message) {
-                    warnings.push(w);
-                }
-            }
-            result.warnings = warnings;
-            result.elapsed = start.elapsed();
-            return Ok(result);
+            return calibrated_again(&copy, options, warnings, start);
         }
         Err(e) => {
             return Err(frames_that_contradict(
@@ -926,6 +914,25 @@ pub fn calibrate_rig(
         [per_camera, joint],
         start,
     ))
+}
+
+/// The rig calibrated again from `observations` (some views left out), with `warnings` (why
+/// they went) first, then the new run's own; its time counted from `start`.
+fn calibrated_again(
+    observations: &RigObservations,
+    options: &RigOptions,
+    mut warnings: Vec<Warning>,
+    start: Instant,
+) -> Result<RigCalibration, RigError> {
+    let mut result = calibrate_rig(observations, options)?;
+    for w in std::mem::take(&mut result.warnings) {
+        if !warnings.iter().any(|k| k.message == w.message) {
+            warnings.push(w);
+        }
+    }
+    result.warnings = warnings;
+    result.elapsed = start.elapsed();
+    Ok(result)
 }
 
 /// The input frames a rig that skips bad views leaves out after `error` (a
