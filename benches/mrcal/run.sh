@@ -148,7 +148,9 @@ while IFS=$'\t' read -r -u 3 name file model; do
         cmd=("$CALIB" single "$file" --model "$model" "${flags[@]}" --threads 1 --repeat "$REPEATS"
              -q -o "$base.calib.$settings.json")
         if "${cmd[@]}" >"$base.calib.$settings.log" 2>&1 </dev/null; then
-            "$PY" "$PEER" ours "$file" "$base.calib.$settings.json" >"$base.ours.$settings.json" \
+            polish=()
+            [[ $settings == comparable ]] && polish=(--polish)
+            "$PY" "$PEER" ours "$file" "$base.calib.$settings.json" "${polish[@]}" >"$base.ours.$settings.json" \
                 2>>"$base.calib.$settings.log" || { rm -f "$base.ours.$settings.json"; FAILED=1; }
         else
             echo "  calib failed on $name ($settings): $(tail -n 1 "$base.calib.$settings.log")" >&2
