@@ -417,8 +417,15 @@ pub const FISHEYE_POSE_MIN_POINTS: usize = 6;
 /// is the direction at `theta = r / f` off the axis; the points with `theta` below
 /// [`FISHEYE_START_MAX_ANGLE`] are mapped to the pinhole plane (`tan(theta)` along their
 /// direction), a homography from the board to that plane is fitted (at least
-/// [`FISHEYE_POSE_MIN_POINTS`] points), and the pose follows from it with `K = I`. `None` if too
-/// few points qualify or the fit fails.
+/// [`FISHEYE_POSE_MIN_POINTS`] points), and the pose follows from it with `K = I`.
+///
+/// A view with fewer such points (a board at the edge of a wide fisheye, all of it 70 to 100+
+/// degrees off the axis) is mapped to the plane facing the mean of its directions instead: the
+/// directions are turned so that their mean becomes the axis, the same fit gives the pose in that
+/// frame, and the turn is undone. Before, such a view had no fisheye pose, its start came from the
+/// pixel homography through a pinhole camera, and every focal length that put it beyond 70
+/// degrees scored infinite in the focal search. `None` if too few points qualify or the fit
+/// fails.
 pub fn fisheye_pose(
     f: f64,
     cx: f64,
@@ -438,11 +445,64 @@ pub fn fisheye_pose(
         }
     }
     if board.len() < FISHEYE_POSE_MIN_POINTS {
-        return None;
+        return fisheye_pose_off_axis(f, cx, cy, object, image);
     }
     let h = homography::dlt(&board, &plane).ok()?;
     let kept: Vec<Point3<f64>> = board.iter().map(|p| Point3::new(p.x, p.y, 0.0)).collect();
     initial_pose(&h, &Intrinsics::new(1.0, 1.0, 0.0, 0.0), &kept)
+}
+
+/// [`fisheye_pose`] of a view with too few points within [`FISHEYE_START_MAX_ANGLE`] of the
+/// axis: the equidistant directions (`theta = r / f`, below 180 degrees) turned by the rotation
+/// `Q` that takes their mean to the axis, those within the same angle of it mapped to the plane
+/// `z = 1`, and the pose `(R', t')` fitted there returned as `(Q^T R', Q^T t')`.
+fn fisheye_pose_off_axis(
+    f: f64,
+    cx: f64,
+    cy: f64,
+    object: &[Point3<f64>],
+    image: &[Vector2<f64>],
+) -> Option<Pose> {
+    let rays: Vec<(Point3<f64>, Vector3<f64>)> = object
+        .iter()
+        .zip(image)
+        .filter_map(|(x, m)| {
+            let d = Vector2::new(m.x - cx, m.y - cy);
+            let r = d.norm();
+            let theta = r / f;
+            (r > 0.0 && theta < std::f64::consts::PI).then(|| {
+                let u = d / r;
+                (
+                    *x,
+                    Vector3::new(theta.sin() * u.x, theta.sin() * u.y, theta.cos()),
+                )
+            })
+        })
+        .collect();
+    let mean = rays
+        .iter()
+        .fold(Vector3::zeros(), |a, (_, ray)| a + ray)
+        .try_normalize(1e-9)?;
+    let turn = nalgebra::Rotation3::rotation_between(&mean, &Vector3::z())?;
+    let (mut board, mut plane) = (Vec::new(), Vec::new());
+    for (x, ray) in &rays {
+        let v = turn * ray;
+        if v.xy().norm().atan2(v.z) < FISHEYE_START_MAX_ANGLE {
+            board.push(Point2::new(x.x, x.y));
+            plane.push(Point2::new(v.x / v.z, v.y / v.z));
+        }
+    }
+    if board.len() < FISHEYE_POSE_MIN_POINTS {
+        return None;
+    }
+    let h = homography::dlt(&board, &plane).ok()?;
+    let kept: Vec<Point3<f64>> = board.iter().map(|p| Point3::new(p.x, p.y, 0.0)).collect();
+    let pose = initial_pose(&h, &Intrinsics::new(1.0, 1.0, 0.0, 0.0), &kept)?;
+    let back = turn.inverse();
+    Some(Pose::new(
+        back.matrix() * pose.rotation,
+        back * pose.translation,
+    ))
 }
 
 /// [`focal_score`] for a fisheye lens: the poses come from [`fisheye_pose`] at each candidate
