@@ -447,7 +447,13 @@ pub fn fisheye_pose(
     if board.len() < FISHEYE_POSE_MIN_POINTS {
         return fisheye_pose_off_axis(f, cx, cy, object, image);
     }
-    let h = homography::dlt(&board, &plane).ok()?;
+    plane_pose(&board, &plane)
+}
+
+/// The pose of a board whose points `board` (on its plane) are seen at `plane` on the camera's
+/// plane `z = 1` (normalized coordinates, `K = I`): from their homography.
+fn plane_pose(board: &[Point2<f64>], plane: &[Point2<f64>]) -> Option<Pose> {
+    let h = homography::dlt(board, plane).ok()?;
     let kept: Vec<Point3<f64>> = board.iter().map(|p| Point3::new(p.x, p.y, 0.0)).collect();
     initial_pose(&h, &Intrinsics::new(1.0, 1.0, 0.0, 0.0), &kept)
 }
@@ -495,9 +501,7 @@ fn fisheye_pose_off_axis(
     if board.len() < FISHEYE_POSE_MIN_POINTS {
         return None;
     }
-    let h = homography::dlt(&board, &plane).ok()?;
-    let kept: Vec<Point3<f64>> = board.iter().map(|p| Point3::new(p.x, p.y, 0.0)).collect();
-    let pose = initial_pose(&h, &Intrinsics::new(1.0, 1.0, 0.0, 0.0), &kept)?;
+    let pose = plane_pose(&board, &plane)?;
     let back = turn.inverse();
     Some(Pose::new(
         back.matrix() * pose.rotation,
