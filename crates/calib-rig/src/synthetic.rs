@@ -74,6 +74,16 @@ pub struct SyntheticRigSet {
     pub frame_poses: Vec<Pose>,
 }
 
+/// Degrees between neighbouring cameras on a ring over `arc_deg` (a closed ring from 359
+/// degrees: `n` gaps; an open arc: `n - 1`).
+fn ring_step(arc_deg: f64, n: usize) -> f64 {
+    if arc_deg >= 359.0 {
+        arc_deg / n as f64
+    } else {
+        arc_deg / (n.max(2) - 1) as f64
+    }
+}
+
 /// Rotation of a camera at `position` looking at `target`, image y axis as close to world +y
 /// (down) as the viewing direction allows.
 fn look_at(position: &Vector3<f64>, target: &Vector3<f64>) -> Matrix3<f64> {
@@ -96,8 +106,19 @@ pub fn generate_rig(config: &SyntheticRigConfig) -> Result<SyntheticRigSet, Synt
             "a rig needs 1 to 64 cameras and at least one frame".into(),
         ));
     }
-    let mut rng = Rng::new(base.seed);
     let n = config.cameras;
+    // A board seen by two neighbours faces each within 70 degrees (below): neighbours further
+    // apart around the ring than twice that can never share a frame.
+    if let RigLayout::Ring { arc_deg } = config.layout {
+        let step = ring_step(arc_deg, n);
+        if n > 1 && step > 140.0 {
+            return Err(SyntheticError::Invalid(format!(
+                "{n} cameras on a {arc_deg}-degree arc stand {step:.0} degrees apart: a board seen by two neighbours must face both within 70 degrees, so they can be at most 140 degrees apart; use a smaller arc (at most {:.0} degrees for {n} cameras) or more cameras",
+                140.0 * (n - 1) as f64
+            )));
+        }
+    }
+    let mut rng = Rng::new(base.seed);
     let (board, board_width, board_centre) = board_geometry(base);
     let k0 = base.intrinsics;
     let distance = k0.fx * board_width / (0.55 * base.image_size.width as f64);
@@ -109,11 +130,7 @@ pub fn generate_rig(config: &SyntheticRigConfig) -> Result<SyntheticRigSet, Synt
     for c in 0..n {
         let position = match config.layout {
             RigLayout::Ring { arc_deg } => {
-                let step = if arc_deg >= 359.0 {
-                    arc_deg / n as f64
-                } else {
-                    arc_deg / (n.max(2) - 1) as f64
-                };
+                let step = ring_step(arc_deg, n);
                 let a = (c as f64 * step - arc_deg / 2.0).to_radians();
                 Vector3::new(distance * a.sin(), 0.0, -distance * a.cos())
             }
@@ -299,6 +316,24 @@ mod tests {
         }
         // The two ends of a 180-degree arc see the board from opposite sides.
         assert_eq!(shared[0][n - 1], 0);
+    }
+
+    /// Two cameras on the default 180-degree arc face each other: no board faces both. The
+    /// generator said it could not place the board "for this camera" (too large a board or
+    /// tilt); it now names the arc and what to use.
+    #[test]
+    fn neighbours_too_far_apart_on_the_ring_are_refused_naming_the_arc() {
+        let mut config = SyntheticRigConfig {
+            cameras: 2,
+            ..Default::default()
+        };
+        let message = generate_rig(&config).unwrap_err().to_string();
+        assert!(
+            message.contains("180 degrees apart") && message.contains("at most 140 degrees"),
+            "{message}"
+        );
+        config.layout = RigLayout::Ring { arc_deg: 90.0 };
+        assert!(generate_rig(&config).is_ok());
     }
 
     #[test]
