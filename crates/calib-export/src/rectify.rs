@@ -12,7 +12,9 @@
 //!    rectified cameras look the same way and `R2 T = (t', 0, 0)`.
 //! 3. **A common new camera matrix.** Focal length `f` = mean of the two `fy` (`fx` for a
 //!    vertical rig); each camera's principal point centres the rectified images of its four image
-//!    corners; with zero disparity at infinity both take the mean of the two.
+//!    corners (of its four edge midpoints where a corner lies more than 90 degrees off the
+//!    rectified axis, which a pinhole image cannot show: fisheyes wider than about 180 degrees
+//!    across the diagonal); with zero disparity at infinity both take the mean of the two.
 //! 4. **Scale (`alpha`).** As in [`crate::undistort::optimal_new_camera_matrix`], `s0` makes
 //!    every rectified pixel of both images valid and `s1` keeps every source pixel;
 //!    `f <- f (s0 (1 - alpha) + s1 alpha)`.
@@ -29,7 +31,7 @@
 
 use crate::calibration::StereoRig;
 use crate::error::ExportError;
-use crate::undistort::{Rect, clip_roi, pixel_ray, undistort_rectangles};
+use crate::undistort::{LostPoints, Rect, clip_roi, pixel_ray, rectangles, undistort_rectangles};
 use calib_core::{ImageSize, ResultFormatError};
 use camera_model::{AxisAngle, RotationParameterization};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector2, Vector3};
@@ -113,30 +115,49 @@ pub fn stereo_rectify(rig: &StereoRig, alpha: Option<f64>) -> Result<Rectificati
         .into_iter()
         .enumerate()
     {
-        let mut sum = Vector2::zeros();
-        for (u, v) in [
+        // The image corners; a lens that sees them beyond 90 degrees from the rectified axis (a
+        // fisheye wider than about 180 degrees across the diagonal) has no pinhole image of them,
+        // and the edge midpoints centre it instead.
+        let corners = [
             (0.0, 0.0),
             (nx - 1.0, 0.0),
             (0.0, ny - 1.0),
             (nx - 1.0, ny - 1.0),
-        ] {
-            let ray = pixel_ray(&camera.camera, &Vector2::new(u, v)).map_err(|e| {
+        ];
+        let midpoints = [
+            ((nx - 1.0) / 2.0, 0.0),
+            (nx - 1.0, (ny - 1.0) / 2.0),
+            ((nx - 1.0) / 2.0, ny - 1.0),
+            (0.0, (ny - 1.0) / 2.0),
+        ];
+        let rectified = |points: &[(f64, f64); 4]| -> Result<Option<Vector2<f64>>, ExportError> {
+            let mut sum = Vector2::zeros();
+            for &(u, v) in points {
+                let ray = pixel_ray(&camera.camera, &Vector2::new(u, v)).map_err(|e| {
+                    ExportError::invalid(
+                        format!("rectifying camera '{}'", camera.name),
+                        format!(
+                            "image point ({u}, {v}): {e} (a lens model that is not one-to-one out to the image corners cannot be rectified: see the calibration's model-invalid warning, and recalibrate this camera with a model valid over the image, e.g. as calib single --compare-models recommends)"
+                        ),
+                    )
+                })?;
+                let s = r * ray;
+                if s.z.partial_cmp(&1e-9) != Some(std::cmp::Ordering::Greater) {
+                    return Ok(None);
+                }
+                sum += Vector2::new(f * s.x / s.z, f * s.y / s.z);
+            }
+            Ok(Some(sum))
+        };
+        let sum = match rectified(&corners)? {
+            Some(sum) => sum,
+            None => rectified(&midpoints)?.ok_or_else(|| {
                 ExportError::invalid(
                     format!("rectifying camera '{}'", camera.name),
-                    format!(
-                        "image corner ({u}, {v}): {e} (a lens model that is not one-to-one out to the image corners cannot be rectified: see the calibration's model-invalid warning, and recalibrate this camera with a model valid over the image, e.g. as calib single --compare-models recommends)"
-                    ),
+                    "the middle of an image edge looks more than 90 degrees away from the rectified cameras' common axis: a rectified (pinhole) image cannot show it; the cameras are turned too far from each other, or the lens sees too wide, to share rectified images (undistort each camera alone: calib undistort)".to_string(),
                 )
-            })?;
-            let s = r * ray;
-            if s.z.partial_cmp(&1e-9) != Some(std::cmp::Ordering::Greater) {
-                return Err(ExportError::invalid(
-                    format!("rectifying camera '{}'", camera.name),
-                    format!("image corner ({u}, {v}) looks behind the rectified image plane"),
-                ));
-            }
-            sum += Vector2::new(f * s.x / s.z, f * s.y / s.z);
-        }
+            })?,
+        };
         let avg = sum / 4.0;
         cc[k] = Vector2::new((nx - 1.0) / 2.0 - avg.x, (ny - 1.0) / 2.0 - avg.y);
     }
@@ -154,9 +175,15 @@ pub fn stereo_rectify(rig: &StereoRig, alpha: Option<f64>) -> Result<Rectificati
 
     // 4. Scale.
     let k3 = |p: &Matrix3x4<f64>| p.fixed_view::<3, 3>(0, 0).into_owned();
-    let (inner1, outer1) = undistort_rectangles(&rig.left.camera, size, Some(&r1), Some(&k3(&p1)))?;
-    let (inner2, outer2) =
-        undistort_rectangles(&rig.right.camera, size, Some(&r2), Some(&k3(&p2)))?;
+    // Keeping source pixels (alpha above 0) needs every grid point: one a fisheye sees more
+    // than 90 degrees off the rectified axis has no place in a pinhole image, and leaving it out
+    // gave a degenerate scale (f 0.3 px for a 200-degree pair). Alpha 0 crops to the rest.
+    let policy = match alpha {
+        Some(a) if a > 0.0 => LostPoints::RefusedInnerMayBeEmpty,
+        _ => LostPoints::LeftOut,
+    };
+    let (inner1, outer1) = rectangles(&rig.left.camera, size, Some(&r1), Some(&k3(&p1)), policy)?;
+    let (inner2, outer2) = rectangles(&rig.right.camera, size, Some(&r2), Some(&k3(&p2)), policy)?;
     let ratios = |r: &Rect, c: &Vector2<f64>| {
         [
             c.x / (c.x - r.x),

@@ -132,11 +132,14 @@ pub fn undistort_rectangles(
 
 /// What [`rectangles`] does with a grid point that cannot be undistorted.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum LostPoints {
+pub(crate) enum LostPoints {
     /// Leave it out.
     LeftOut,
     /// Refuse (an error naming the first one); an empty inner rectangle is refused too.
     Refused,
+    /// Refuse, but leave an empty inner rectangle to the caller (stereo rectification keeping
+    /// every source pixel, whose rolled cameras have none).
+    RefusedInnerMayBeEmpty,
     /// Leave it out if its ray points at or behind the ideal image plane (its undistorted image
     /// lies at infinity in its own direction, so it bounds no inner rectangle), refuse if the
     /// model cannot invert it; an empty inner rectangle is refused.
@@ -145,7 +148,7 @@ enum LostPoints {
 
 /// [`undistort_rectangles`], with `policy` saying what a grid point that cannot be undistorted
 /// does.
-fn rectangles(
+pub(crate) fn rectangles(
     camera: &AnyCamera,
     image_size: ImageSize,
     rectification: Option<&Matrix3<f64>>,
@@ -241,7 +244,8 @@ fn rectangles(
             ),
         ));
     }
-    if count < 4 || !outer.is_nonempty() || (every_point && !inner.is_nonempty()) {
+    let needs_inner = matches!(policy, LostPoints::Refused | LostPoints::BehindPlaneLeftOut);
+    if count < 4 || !outer.is_nonempty() || (needs_inner && !inner.is_nonempty()) {
         return Err(ExportError::invalid(
             "undistortion",
             format!(

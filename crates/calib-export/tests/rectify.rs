@@ -306,3 +306,56 @@ fn rectified_sourishg1_pairs_have_corners_on_the_same_rows() {
     assert!(mean < 0.5, "mean |dy| {mean}");
     assert!(max < 2.0, "max |dy| {max}");
 }
+
+/// A fisheye pair seeing about 200 degrees across the diagonal (f 230 px on 640x480: the image
+/// corners lie 100 degrees off the axis). No pinhole image shows the corners, and rectification
+/// refused every alpha ("image corner (0, 0) looks behind the rectified image plane"), while
+/// alpha 1 fell through to a degenerate scale (f 0.3 px) once the corners were not needed. Now
+/// the edge midpoints centre each camera, alpha 0 and the default rectify (points on one row),
+/// and alpha above 0, which would keep the corners, is refused pointing to alpha 0.
+#[test]
+fn a_fisheye_pair_seeing_beyond_90_degrees_rectifies_within_90_degrees() {
+    let wide = |name, cx, cy| {
+        CameraCalibration::new(
+            name,
+            AnyCamera::new(
+                CameraModel::KannalaBrandt4,
+                Intrinsics::new(230.0, 230.0, cx, cy),
+                vec![0.0; 4],
+            )
+            .unwrap(),
+            ImageSize::new(640, 480),
+        )
+        .unwrap()
+    };
+    let rig = StereoRig {
+        left: wide("left", 319.5, 239.5),
+        right: wide("right", 321.0, 238.0),
+        rotation: AxisAngle::matrix(&Vector3::new(0.01, -0.02, 0.005)),
+        translation: Vector3::new(-0.1, 0.002, 0.001),
+    };
+    for alpha in [Some(0.0), None] {
+        let rect = stereo_rectify(&rig, alpha).unwrap_or_else(|e| panic!("{alpha:?}: {e}"));
+        let k1 = rect.p1.fixed_view::<3, 3>(0, 0).into_owned();
+        let k2 = rect.p2.fixed_view::<3, 3>(0, 0).into_owned();
+        assert!(
+            k1[(0, 0)] > 100.0 && k1[(0, 0)].is_finite(),
+            "{alpha:?}: {k1}"
+        );
+        for x_left in [Vector3::new(0.5, 0.2, 1.0), Vector3::new(-0.8, -0.4, 1.2)] {
+            let x_right = rig.rotation * x_left + rig.translation;
+            let pl = rig.left.camera.project_camera_point(&x_left).unwrap();
+            let pr = rig.right.camera.project_camera_point(&x_right).unwrap();
+            let ql = undistort_point(&rig.left.camera, &pl, Some(&rect.r1), Some(&k1)).unwrap();
+            let qr = undistort_point(&rig.right.camera, &pr, Some(&rect.r2), Some(&k2)).unwrap();
+            assert!((ql.y - qr.y).abs() < 1e-8, "{alpha:?}: {ql} vs {qr}");
+        }
+    }
+    for alpha in [0.5, 1.0] {
+        let message = stereo_rectify(&rig, Some(alpha)).unwrap_err().to_string();
+        assert!(
+            message.contains("more than 90 degrees") && message.contains("alpha 0"),
+            "{alpha}: {message}"
+        );
+    }
+}
