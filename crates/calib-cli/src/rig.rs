@@ -80,6 +80,13 @@ impl RigArgs {
                 "--intrinsics {path}: calib rig takes one file per camera, --intrinsics NAME={path}"
             )));
         }
+        // Given cameras are always held fixed; --fix-intrinsics without one would do nothing.
+        if self.camera.fix_intrinsics && named.is_empty() {
+            return Err(Failure(
+                "--fix-intrinsics: give the intrinsics with --intrinsics NAME=FILE (calib rig holds every camera given that way fixed)"
+                    .into(),
+            ));
+        }
         let mut given = vec![None; n];
         for (name, path) in named {
             let c = camera_index(observations, name, "--intrinsics")?;

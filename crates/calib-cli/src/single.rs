@@ -28,7 +28,8 @@ pub struct CameraArgs {
     #[arg(long, value_name = "FILE")]
     pub intrinsics: Vec<String>,
     /// Hold the intrinsics and distortion of --intrinsics (or --left/--right-intrinsics) fixed:
-    /// only the poses (and a stereo rig's R, T) are estimated.
+    /// only the poses (and a stereo rig's R, T) are estimated. calib rig always holds the
+    /// cameras of --intrinsics NAME=FILE fixed.
     #[arg(long)]
     pub fix_intrinsics: bool,
     /// Hold the principal point at the image centre (or at --guess).

@@ -252,6 +252,11 @@ fn per_camera_models_and_given_intrinsics() {
             vec!["--intrinsics", "result.json"],
             "--intrinsics NAME=result.json",
         ),
+        // Without a given camera it held nothing, silently.
+        (
+            vec!["--fix-intrinsics"],
+            "--fix-intrinsics: give the intrinsics",
+        ),
     ] {
         let run = calib().arg("rig").arg(&input).args(&args).output().unwrap();
         assert_eq!(run.status.code(), Some(1));
