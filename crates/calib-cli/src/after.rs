@@ -589,7 +589,7 @@ pub struct RectifyArgs {
     #[arg(value_name = "STEREO_RESULT")]
     pub input: String,
     /// Of a rig, rectify the pair of these two cameras (names): LEFT's images with --images,
-    /// RIGHT's with --right.
+    /// RIGHT's with --right. Of a stereo file, right,left rectifies it the other way round.
     #[arg(long, value_name = "LEFT,RIGHT")]
     pub pair: Option<String>,
     /// Free scaling: 0 keeps only valid pixels in both rectified images, 1 keeps every source

@@ -26,8 +26,9 @@ pub struct OutputArgs {
     /// (repeatable; see calib export).
     #[arg(long, value_name = "FORMAT=FILE")]
     pub export: Vec<String>,
-    /// Write an HTML report with plots (residuals, coverage, per-view RMS, board poses,
-    /// distortion, projection uncertainty) into DIR (see calib report).
+    /// Write an HTML report with plots (residuals, mean residuals, residual scatter, coverage,
+    /// per-view RMS, board poses, distortion, projection uncertainty) into DIR (see calib
+    /// report).
     #[arg(long, value_name = "DIR")]
     pub report: Option<std::path::PathBuf>,
     /// Refuse input files larger than this many megabytes.

@@ -16,7 +16,7 @@ use std::path::PathBuf;
 pub struct CameraArgs {
     /// Lens model: brown-conrady4 (k1 k2 p1 p2), brown-conrady5 (+k3, OpenCV's default),
     /// rational8, thin-prism12, kannala-brandt4 (fisheye). Also accepted: plumb_bob,
-    /// rational_polynomial, equidistant.
+    /// rational_polynomial, equidistant, fisheye.
     /// [default: brown-conrady4, or the model of --intrinsics]. calib rig also takes
     /// NAME=MODEL for one camera (repeatable).
     #[arg(long, value_name = "MODEL")]
