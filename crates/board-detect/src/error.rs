@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-/// Why [`detect`](crate::detect) (or one of its variants) returned no board for an image.
+/// Why [`detect`](fn@crate::detect) (or one of its variants) returned no board for an image.
 ///
 /// Every failure on user data is one of these values; nothing in the crate panics on bad
 /// input. The `Display` text is short and suitable for the `reason` field of the

@@ -163,7 +163,7 @@ pub enum Refinement {
     },
 }
 
-/// Options of [`detect`]. `Default` gives the measured best choices.
+/// Options of [`detect()`]. `Default` gives the measured best choices.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetectOptions {
     /// Largest image accepted, in pixels (`width * height`); larger ones fail with

@@ -6,7 +6,7 @@
 //!   flat region (gradient `g_i ~ 0`) or on one of the edges through `q` (gradient orthogonal
 //!   to `q - x_i`), so `q` minimises `sum_i w_i (g_i . (q - x_i))^2`, a 2x2 linear system.
 //!   The weights are a Gaussian around the current estimate.
-//! * [`saddle`]: the blurred image is fitted with a quadratic surface by weighted least
+//! * [`SaddleFit`]: the blurred image is fitted with a quadratic surface by weighted least
 //!   squares on a grid of samples centred at the current estimate; the surface's saddle point
 //!   is the next estimate. A blurred X-junction is point-symmetric about the corner, so the
 //!   fit's linear terms vanish exactly there.
@@ -67,7 +67,8 @@ pub(crate) fn gradient(img: &ImageF, p: P, hw: usize, sigma_w: f64) -> Option<P>
     Some(q)
 }
 
-/// Precomputed weighted least-squares solver for the quadratic fit of [`saddle`].
+/// Precomputed weighted least-squares solver for the saddle refinement's quadratic fit
+/// ([`SaddleFit::refine`]).
 pub(crate) struct SaddleFit {
     r: isize,
     /// 6 x N matrix mapping the samples to the coefficients `[a, b, c, d, e, f]` of

@@ -31,7 +31,7 @@ pub(crate) struct ResidualLayout {
 }
 
 /// The residual layouts of a problem's observations (the parameter lists of
-/// [`crate::solve`]'s residual blocks).
+/// [`crate::solve()`]'s residual blocks).
 pub(crate) fn residual_layouts(problem: &JointProblem) -> Vec<ResidualLayout> {
     problem
         .observations

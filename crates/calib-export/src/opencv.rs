@@ -352,7 +352,7 @@ fn read_rig(doc: &Doc, v: &Value) -> Result<CameraRig, ExportError> {
         .map_err(|e| ExportError::field(doc.path, "rig_cameras", e.to_string()))
 }
 
-/// Reads an OpenCV file written by [`write`] (or by OpenCV with these keys).
+/// Reads an OpenCV file written by [`write()`] (or by OpenCV with these keys).
 pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
     if v.get("rig_cameras").is_some() {
         return read_rig(doc, v).map(Calibrated::Rig);

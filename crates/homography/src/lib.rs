@@ -11,9 +11,9 @@
 //!
 //! * [`normalization_matrix`] (`normalization.rs`): similarity transforms that centre each
 //!   point set and scale it to a mean distance of `sqrt(2)`, conditioning the linear system;
-//! * [`dlt`] (`dlt.rs`): the normalized direct linear transform, a closed-form estimate
+//! * [`dlt()`] (`dlt.rs`): the normalized direct linear transform, a closed-form estimate
 //!   that minimizes an algebraic error;
-//! * [`refine`] (`refine.rs`): Gauss-Newton on the eight free entries of `H`, minimizing the
+//! * [`refine()`] (`refine.rs`): Gauss-Newton on the eight free entries of `H`, minimizing the
 //!   pixel reprojection error with the analytic Jacobian of [`project_with_jacobian`]
 //!   (`projection.rs`);
 //! * [`estimate`]: both stages, the normal entry point;

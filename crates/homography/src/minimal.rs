@@ -137,7 +137,7 @@ impl SampleSolver {
 
     /// The homography in the caller's units of the points `idx` (`H33 = 1`), or `None` for a
     /// degenerate sample: three collinear points (see [`SAMPLE_DEGENERACY_THRESHOLD`]) or, as
-    /// for [`dlt`](crate::dlt), a board origin mapped to infinity. `object` is the slice given to
+    /// for [`dlt`](fn@crate::dlt), a board origin mapped to infinity. `object` is the slice given to
     /// [`SampleSolver::new`].
     #[inline]
     pub(crate) fn solve(&self, object: &[Point2<f64>], idx: &[usize; 4]) -> Option<Matrix3<f64>> {

@@ -4,7 +4,7 @@
 //! `H33` is fixed to one and the eight remaining entries
 //! `p = (h11, h21, h31, h12, h22, h32, h13, h23)` are optimized. With the residuals
 //! `r_i = project(H(p), M_i) - m_i` and their `2 x 8` Jacobians `J_i` (see
-//! [`project_with_jacobian`]), each iteration solves the normal equations
+//! [`project_with_jacobian`](crate::projection::project_with_jacobian)), each iteration solves the normal equations
 //!
 //! ```text
 //! (sum_i J_i^T J_i) dp = -sum_i J_i^T r_i

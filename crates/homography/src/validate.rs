@@ -1,4 +1,4 @@
-//! Input validation shared by [`dlt`](crate::dlt) and [`refine`](crate::refine), and the
+//! Input validation shared by [`dlt`](fn@crate::dlt) and [`refine`](fn@crate::refine), and the
 //! `H33 = 1` scaling with its degeneracy test.
 
 use nalgebra::{Matrix3, Point2};
