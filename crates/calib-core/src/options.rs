@@ -48,7 +48,7 @@ pub struct CalibrationOptions {
     /// saves the rank check and the inversion.
     pub compute_uncertainty: bool,
     /// Reject points far beyond the noise and solve again (default on: 5 robust sigmas, never
-    /// below 0.5 px; see [`crate::outliers`]). `None` uses every point, like OpenCV.
+    /// below 1 px; see [`crate::outliers`]). `None` uses every point, like OpenCV.
     pub outliers: Option<OutlierRejection>,
     /// Robust loss on each point's reprojection error (default none: least squares). The loss
     /// applies to the squared error in px^2, its scale (`Loss::Huber(a)`, `Loss::Cauchy(a)`)
