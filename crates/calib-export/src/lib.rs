@@ -1,15 +1,17 @@
 //! After calibration: files other tools read (and reading them back), undistortion and stereo
 //! rectification of points and images, and an HTML report.
 //!
-//! * [`export`] writes a [`Calibrated`] camera or stereo rig as OpenCV FileStorage YAML
-//!   ([`opencv`]), ROS camera_info YAML ([`ros`]) or a Kalibr camchain ([`kalibr`]);
+//! * [`export`] writes a [`Calibrated`] camera, stereo rig or rig of N cameras as OpenCV
+//!   FileStorage YAML ([`opencv`]), ROS camera_info YAML ([`ros`]) or a Kalibr camchain
+//!   ([`kalibr`]);
 //!   [`read_calibration`] reads any of them, or a `calib` result JSON, back.
 //! * [`undistort`] maps pixels to undistorted normalized coordinates or to the pixels of a new
 //!   camera matrix, chosen like OpenCV's `getOptimalNewCameraMatrix`; [`rectify`] computes
 //!   Bouguet's stereo rectification (`R1`, `R2`, `P1`, `P2`, `Q`); [`remap`] builds the pixel
 //!   maps once per camera and resamples images (bilinear) in parallel.
-//! * [`report`] writes an HTML page with SVG plots (residuals, coverage, per-view RMS, board
-//!   poses, distortion field, projection uncertainty).
+//! * [`report`] writes an HTML page with SVG plots (residuals, mean residuals, residual
+//!   scatter, coverage, per-view RMS, board poses, distortion field, projection uncertainty;
+//!   the layout of a stereo pair or rig).
 //!
 //! Conventions are the workspace's: pixels as in OpenCV (`(0, 0)` is the centre of the top-left
 //! pixel), distortion coefficients in OpenCV's order, `X_right = R X_left + T`. The math and the
