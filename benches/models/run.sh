@@ -87,18 +87,8 @@ if [[ $REFERENCE -eq 1 ]]; then
     exit 0
 fi
 
-if [[ -z "$CALIB" ]]; then
-    TARGET_DIR="${CARGO_TARGET_DIR:-target}"
-    [[ "$TARGET_DIR" = /* ]] || TARGET_DIR="$ROOT/$TARGET_DIR"
-    CALIB="$TARGET_DIR/release/calib"
-    if [[ $BUILD -eq 1 ]]; then
-        echo "== cargo build --release -p calib-cli"
-        cargo build --release -p calib-cli || die "cargo build --release -p calib-cli failed"
-    fi
-fi
-[[ -x "$CALIB" ]] || die "calib binary not found at $CALIB (build with: cargo build --release -p calib-cli)"
-CALIB_REV="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-[[ -z "$(git status --porcelain -- crates Cargo.toml Cargo.lock 2>/dev/null)" ]] || CALIB_REV+="+dirty"
+# shellcheck source=../calib_binary.sh
+source "$ROOT/benches/calib_binary.sh"
 
 rm -rf "$OUT"
 mkdir -p "$OUT"

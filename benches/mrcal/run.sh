@@ -86,18 +86,8 @@ MRCAL_VERSION="$(dpkg-query -W -f='${Version}' python3-mrcal 2>/dev/null || echo
 PY_DESC="numpy $("$PY" -c 'import numpy; print(numpy.__version__)'), Python $("$PY" -c 'import platform; print(platform.python_version())')"
 echo "python3-mrcal $MRCAL_VERSION, $PY_DESC"
 
-if [[ -z "$CALIB" ]]; then
-    TARGET_DIR="${CARGO_TARGET_DIR:-target}"
-    [[ "$TARGET_DIR" = /* ]] || TARGET_DIR="$ROOT/$TARGET_DIR"
-    CALIB="$TARGET_DIR/release/calib"
-    if [[ $BUILD -eq 1 ]]; then
-        echo "== cargo build --release -p calib-cli"
-        cargo build --release -p calib-cli || die "cargo build --release -p calib-cli failed"
-    fi
-fi
-[[ -x "$CALIB" ]] || die "calib binary not found at $CALIB (build with: cargo build --release -p calib-cli)"
-CALIB_REV="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-[[ -z "$(git status --porcelain -- crates Cargo.toml Cargo.lock 2>/dev/null)" ]] || CALIB_REV+="+dirty"
+# shellcheck source=../calib_binary.sh
+source "$ROOT/benches/calib_binary.sh"
 
 rm -rf "$OUT"
 mkdir -p "$OUT"

@@ -92,20 +92,8 @@ NP_VERSION="$("$PY" -c 'import numpy; print(numpy.__version__)')"
 echo "cv2 $CV_VERSION, numpy $NP_VERSION ($("$PY" --version 2>&1))"
 
 # ---------------------------------------------------------------- 2. calib
-if [[ -z "$CALIB" ]]; then
-    TARGET_DIR="${CARGO_TARGET_DIR:-target}"
-    [[ "$TARGET_DIR" = /* ]] || TARGET_DIR="$ROOT/$TARGET_DIR"
-    CALIB="$TARGET_DIR/release/calib"
-    if [[ $BUILD -eq 1 ]]; then
-        echo "== cargo build --release -p calib-cli"
-        cargo build --release -p calib-cli || die "cargo build --release -p calib-cli failed"
-    fi
-fi
-[[ -x "$CALIB" ]] || die "calib binary not found at $CALIB (build with: cargo build --release -p calib-cli)"
-CALIB_REV="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-if [[ -n "$(git status --porcelain -- crates Cargo.toml Cargo.lock 2>/dev/null)" ]]; then
-    CALIB_REV+="+dirty"
-fi
+# shellcheck source=../calib_binary.sh
+source "$ROOT/benches/calib_binary.sh"
 
 # ---------------------------------------------------------------- 3. problems
 # name kind views board seed-offset ("-" board = bundled real data file in column 3)
