@@ -435,9 +435,7 @@ pub fn fisheye_pose(
 ) -> Option<Pose> {
     let (mut board, mut plane) = (Vec::new(), Vec::new());
     for (x, m) in object.iter().zip(image) {
-        let d = Vector2::new(m.x - cx, m.y - cy);
-        let r = d.norm();
-        let theta = r / f;
+        let (d, r, theta) = equidistant_polar(f, cx, cy, m);
         if theta < FISHEYE_START_MAX_ANGLE {
             let scale = if r > 0.0 { theta.tan() / r } else { 1.0 / f };
             board.push(Point2::new(x.x, x.y));
@@ -448,6 +446,14 @@ pub fn fisheye_pose(
         return fisheye_pose_off_axis(f, cx, cy, object, image);
     }
     plane_pose(&board, &plane)
+}
+
+/// Pixel `m`'s offset from the principal point `(cx, cy)`, its length `r` and the angle off the
+/// axis an equidistant lens of focal length `f` sees it at, `theta = r / f` (radians).
+fn equidistant_polar(f: f64, cx: f64, cy: f64, m: &Vector2<f64>) -> (Vector2<f64>, f64, f64) {
+    let d = Vector2::new(m.x - cx, m.y - cy);
+    let r = d.norm();
+    (d, r, r / f)
 }
 
 /// The pose of a board whose points `board` (on its plane) are seen at `plane` on the camera's
@@ -473,9 +479,7 @@ fn fisheye_pose_off_axis(
         .iter()
         .zip(image)
         .filter_map(|(x, m)| {
-            let d = Vector2::new(m.x - cx, m.y - cy);
-            let r = d.norm();
-            let theta = r / f;
+            let (d, r, theta) = equidistant_polar(f, cx, cy, m);
             (r > 0.0 && theta < std::f64::consts::PI).then(|| {
                 let u = d / r;
                 (
