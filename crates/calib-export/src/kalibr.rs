@@ -8,7 +8,7 @@
 //!   distortion_model: radtan
 //!   intrinsics: [fu, fv, pu, pv]
 //!   resolution: [640, 360]
-//!   rostopic: /cam0/image_raw
+//!   rostopic: /left/image_raw
 //! cam1:
 //!   T_cn_cnm1:
 //!     - [r11, r12, r13, t1]
@@ -29,7 +29,10 @@
 //! reference is `cam0`. Models: `brown-conrady4` is `pinhole` with `radtan`, `kannala-brandt4` is
 //! `pinhole` with `equidistant`, `brown-conrady5` only with `k3 = 0` (radtan has no k3);
 //! `rational8` and `thin-prism12` have no Kalibr equivalent and give
-//! [`ExportError::UnsupportedModel`]. Kalibr's pixel convention is OpenCV's.
+//! [`ExportError::UnsupportedModel`]. Kalibr's pixel convention is OpenCV's. A camera's name
+//! travels in its `rostopic`, `/NAME/image_raw` (`/camN/image_raw` for a name that cannot be a
+//! topic segment: a letter, then letters, digits and underscores), and is read back from there
+//! (else the camera is named by its key, `camN`).
 
 use crate::calibration::{CameraCalibration, CameraRig, StereoRig};
 use crate::error::ExportError;
@@ -111,7 +114,12 @@ fn camera_block(
         "  resolution: [{}, {}]",
         camera.image_size.width, camera.image_size.height
     );
-    let _ = writeln!(out, "  rostopic: /cam{index}/image_raw");
+    let topic = if is_topic_name(&camera.name) {
+        camera.name.clone()
+    } else {
+        format!("cam{index}")
+    };
+    let _ = writeln!(out, "  rostopic: /{topic}/image_raw");
     Ok(())
 }
 
@@ -208,14 +216,29 @@ fn camera(doc: &Doc, v: &Value, key: &str) -> Result<CameraCalibration, ExportEr
     }
     let camera = AnyCamera::new(model, Intrinsics::new(k[0], k[1], k[2], k[3]), d)
         .map_err(|e| ExportError::field(doc.path, &field("distortion_coeffs"), e.to_string()))?;
+    // The camera's name travels in its topic, `/NAME/image_raw` (what the writer puts there).
+    let name = cam
+        .get("rostopic")
+        .and_then(Value::as_str)
+        .and_then(|t| t.strip_prefix('/')?.strip_suffix("/image_raw"))
+        .filter(|n| is_topic_name(n))
+        .unwrap_or(key);
     let c = CameraCalibration {
-        name: key.to_string(),
+        name: name.to_string(),
         camera,
         image_size: ImageSize::new(res[0] as u32, res[1] as u32),
     };
     c.check()
         .map_err(|e| ExportError::field(doc.path, &field("intrinsics"), e.to_string()))?;
     Ok(c)
+}
+
+/// A camera name that can stand as one segment of a ROS topic (`/NAME/image_raw`): a letter,
+/// then letters, digits and underscores.
+fn is_topic_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic())
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 /// The transform `T_cn_cnm1` of camera block `key`.
@@ -297,10 +320,19 @@ pub(crate) fn read(doc: &Doc, v: &Value) -> Result<Calibrated, ExportError> {
             ),
         ));
     }
-    let cameras = keys
+    let mut cameras = keys
         .iter()
         .map(|k| camera(doc, v, k))
         .collect::<Result<Vec<_>, _>>()?;
+    // Names from topics that repeat (two cameras on one topic) cannot tell the cameras apart:
+    // then every camera keeps its key.
+    let mut names: Vec<&str> = cameras.iter().map(|c| c.name.as_str()).collect();
+    names.sort_unstable();
+    if names.windows(2).any(|w| w[0] == w[1]) {
+        for (camera, key) in cameras.iter_mut().zip(&keys) {
+            camera.name.clone_from(key);
+        }
+    }
     match cameras.len() {
         1 => Ok(Calibrated::Single(
             cameras.into_iter().next().expect("one camera"),

@@ -506,8 +506,13 @@ fn rigs_round_trip_through_opencv_and_kalibr_and_give_one_ros_file_per_camera() 
         };
         same_camera(&renamed, c, "kalibr");
     }
+    // Names travel in the topics (`/back/image_raw`); one that cannot be a topic segment
+    // ("front left", "front/right") is written and read back as its key.
+    assert!(
+        text.contains("rostopic: /back/image_raw") && text.contains("rostopic: /cam0/image_raw")
+    );
     let names: Vec<&str> = back.cameras.iter().map(|c| c.name.as_str()).collect();
-    assert_eq!(names, ["cam0", "cam1", "cam2", "cam3"]);
+    assert_eq!(names, ["cam0", "cam1", "back", "top"]);
     let mut renamed = rig.clone();
     for (c, n) in renamed.cameras.iter_mut().zip(&names) {
         c.name = n.to_string();
@@ -645,5 +650,30 @@ fn bad_rigs_and_rig_files_are_refused_by_name() {
     assert!(
         err.contains("cut.yaml") && err.contains("camera_0.R"),
         "{err}"
+    );
+}
+
+/// A Kalibr camchain holds no camera names: they travel in the topics. A stereo rig written as a
+/// chain reads back as 'left' and 'right' (it read back as 'cam0' and 'cam1'); two cameras on
+/// one topic cannot be told apart by it and keep their keys.
+#[test]
+fn kalibr_camera_names_travel_in_the_topics() {
+    let calibrated =
+        Calibrated::Stereo(rig(CameraModel::BrownConrady4, CameraModel::BrownConrady4));
+    let text = &export_texts(&calibrated, Format::Kalibr, &ExportOptions::default()).unwrap()[0];
+    let Calibrated::Stereo(back) = parse_calibration(text, "camchain.yaml").unwrap() else {
+        panic!("not read back as a stereo rig")
+    };
+    assert_eq!(
+        (back.left.name.as_str(), back.right.name.as_str()),
+        ("left", "right")
+    );
+    let same = text.replace("/right/image_raw", "/left/image_raw");
+    let Calibrated::Stereo(back) = parse_calibration(&same, "camchain.yaml").unwrap() else {
+        panic!("not read back as a stereo rig")
+    };
+    assert_eq!(
+        (back.left.name.as_str(), back.right.name.as_str()),
+        ("cam0", "cam1")
     );
 }
