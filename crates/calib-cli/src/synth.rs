@@ -40,8 +40,9 @@ pub struct SynthRigArgs {
     /// Where the cameras stand.
     #[arg(long, value_enum, default_value_t = Layout::Ring)]
     pub layout: Layout,
-    /// Arc covered by a ring, degrees (360: all around). Neighbouring cameras stand at most 140
-    /// degrees apart (a board both see faces each within 70 degrees): two cameras at most 140.
+    /// Arc covered by a ring, degrees (360: all around). Neighbouring cameras should stand at
+    /// most about 140 degrees apart (a board both see faces each within 70 degrees): two
+    /// cameras at most 140.
     #[arg(long, default_value_t = 180.0, value_name = "DEG")]
     pub arc: f64,
     /// Distance between neighbours of a line, board widths.
