@@ -153,13 +153,22 @@ pub fn view_list<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Vec<Bound
             type_name(obj)
         )));
     }
-    if let Ok(a) = obj.cast::<PyUntypedArray>()
-        && a.ndim() < 3
-    {
-        return Err(PyTypeError::new_err(format!(
-            "{what}: expected a list of arrays (one per view), got one array of shape {}: wrap it in a list",
-            shape_text(a.shape())
-        )));
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        if a.ndim() < 3 {
+            return Err(PyTypeError::new_err(format!(
+                "{what}: expected a list of arrays (one per view), got one array of shape {}: wrap it in a list",
+                shape_text(a.shape())
+            )));
+        }
+        // cv2's (N, 1, D) shape of one view given without the list: iterating it would give N
+        // views of one point each (cv2 reads it so and fails with "the number of points in the
+        // view #0 is < 4"), which no calibration can use.
+        if let [n, 1, 2 | 3] = a.shape() {
+            return Err(PyTypeError::new_err(format!(
+                "{what}: expected a list of arrays (one per view), got one array of shape {}, which would be {n} views of one point each: if it is one view in cv2's (N, 1, D) shape, wrap it in a list",
+                shape_text(a.shape())
+            )));
+        }
     }
     let iter = obj.try_iter().map_err(|_| {
         PyTypeError::new_err(format!(

@@ -179,3 +179,22 @@ def test_names_appear_in_error_messages(left):
     r[4][0, 0] = np.inf
     with pytest.raises(calib.CalibrationError, match=r"^pair 4 \('p4'\), right view"):
         calib.stereo_calibrate(o, l, r, s, names=[f"p{i}" for i in range(len(o))])
+
+
+def test_one_view_in_cv2_shape_without_the_list_is_named(left):
+    # (N, 1, 3) / (N, 1, 2) without the outer list would be N views of one point each (cv2 reads
+    # it so and fails in view 0); the message names the argument and says what to do.
+    obj, img, size = left
+    with pytest.raises(TypeError, match=r"^object_points: .*shape \(54, 1, 3\), which would be 54 views of one point each.*wrap it in a list"):
+        calib.calibrate_camera(obj[0].reshape(-1, 1, 3), img[0].reshape(-1, 1, 2), size)
+    with pytest.raises(TypeError, match=r"^image_points: .*shape \(54, 1, 2\).*wrap it in a list"):
+        calib.calibrate_camera([obj[0]], img[0].reshape(-1, 1, 2), size)
+    o, l, r, s = stereo_arrays("sourishg1/stereo.json")
+    with pytest.raises(TypeError, match=r"^image_points2: .*wrap it in a list"):
+        calib.stereo_calibrate(o[:1], l[:1], r[0].reshape(-1, 1, 2), s)
+    # (1, N, D) is one view, and a stack of views (M, N, D) is M views, as before.
+    one = calib.calibrate_camera(obj[0].reshape(1, -1, 3), img[0].reshape(1, -1, 2), size)
+    assert one.rms == calib.calibrate_camera(obj[:1], img[:1], size).rms
+    stacked = calib.calibrate_camera(np.stack(obj[:6]), np.stack(img[:6]), size)
+    assert stacked.rms == calib.calibrate_camera(obj[:6], img[:6], size).rms
+
