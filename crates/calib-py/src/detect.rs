@@ -1,7 +1,7 @@
 //! `detect_chessboard`, `imread_gray` and `board_points`: `board_detect` on NumPy images.
 
 use crate::calibration_error;
-use crate::convert::{self, type_name};
+use crate::convert;
 use board_detect::{Board, DetectError, DetectOptions, GrayView, detect};
 use numpy::{
     PyArray2, PyArray3, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods,
@@ -9,14 +9,32 @@ use numpy::{
 use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-/// `(cols, rows)` of inner corners.
+/// `(cols, rows)` of inner corners: a tuple, a list or an array of two integers (Python's or
+/// NumPy's), as cv2's `patternSize` accepts.
 fn pattern(obj: &Bound<'_, PyAny>, square: f64) -> PyResult<Board> {
-    let (cols, rows): (i64, i64) = obj.extract().map_err(|_| {
+    let bad = || {
         PyTypeError::new_err(format!(
             "pattern_size: expected (cols, rows) inner corners as two integers, got {}",
-            type_name(obj)
+            convert::short_repr(obj)
         ))
-    })?;
+    };
+    if obj.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let items: Vec<Bound<'_, PyAny>> = obj
+        .try_iter()
+        .map_err(|_| bad())?
+        .collect::<PyResult<_>>()
+        .map_err(|_| bad())?;
+    let side = |v: &Bound<'_, PyAny>| -> PyResult<i64> {
+        v.call_method0("__index__")
+            .and_then(|i| i.extract::<i64>())
+            .map_err(|_| bad())
+    };
+    let [cols, rows] = items.as_slice() else {
+        return Err(bad());
+    };
+    let (cols, rows) = (side(cols)?, side(rows)?);
     let side = |v: i64| usize::try_from(v).unwrap_or(0);
     Board::new(side(cols), side(rows), square)
         .map_err(|e| PyValueError::new_err(format!("pattern_size ({cols}, {rows}): {e}")))
@@ -98,7 +116,9 @@ fn detect_chessboard<'py>(
     let float64 = match dtype.filter(|d| !d.is_none()) {
         None => false,
         Some(d) => {
-            let d = numpy::PyArrayDescr::new(py, d)?;
+            let d = numpy::PyArrayDescr::new(py, d).map_err(|e| {
+                PyTypeError::new_err(format!("dtype: expected float32 or float64 ({e})"))
+            })?;
             if d.is_equiv_to(&numpy::dtype::<f64>(py)) {
                 true
             } else if d.is_equiv_to(&numpy::dtype::<f32>(py)) {

@@ -88,6 +88,12 @@ def test_detection_argument_errors():
         calib.detect_chessboard(gray, (2, 6))
     with pytest.raises(TypeError, match="dtype"):
         calib.detect_chessboard(gray, (9, 6), dtype=np.int32)
+    with pytest.raises(TypeError, match="^dtype: "):
+        calib.detect_chessboard(gray, (9, 6), dtype="no-such-dtype")
+    with pytest.raises(TypeError, match=r"^pattern_size: .*got \(9\.0, 6\.0\)"):
+        calib.detect_chessboard(gray, (9.0, 6.0))
+    with pytest.raises(TypeError, match="^pattern_size: "):
+        calib.detect_chessboard(gray, (9, 6, 1))
     with pytest.raises(OSError, match="nope.png"):
         calib.imread_gray(DATA / "nope.png")
     with pytest.raises(calib.CalibrationError, match="unsupported image format"):
@@ -151,3 +157,13 @@ def test_undistort_points_of_a_calibration_and_errors():
 def test_models_table():
     assert calib.MODELS["brown-conrady4"] == ["k1", "k2", "p1", "p2"]
     assert set(calib.MODELS) == {"brown-conrady4", "brown-conrady5", "rational8", "thin-prism12", "kannala-brandt4"}
+
+
+def test_pattern_size_as_cv2_accepts_it():
+    # cv2.findChessboardCorners takes patternSize as a tuple, a list or an array of two ints.
+    gray = calib.imread_gray(IMAGES / "left3.jpg")
+    expected = calib.detect_chessboard(gray, (9, 6))
+    assert expected is not None
+    for size in ([9, 6], np.array([9, 6]), (np.int64(9), np.int32(6)), np.array([9, 6], np.uint8)):
+        assert np.array_equal(calib.detect_chessboard(gray, size), expected), repr(size)
+        assert np.array_equal(calib.board_points(size, 2.0), calib.board_points((9, 6), 2.0))

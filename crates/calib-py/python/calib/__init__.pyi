@@ -434,7 +434,7 @@ def calibrate_rig(
 @overload
 def detect_chessboard(
     image: npt.NDArray[np.uint8],
-    pattern_size: tuple[int, int],
+    pattern_size: Sequence[int],
     *,
     dtype: None = None,
     raise_on_failure: bool = False,
@@ -442,7 +442,7 @@ def detect_chessboard(
 @overload
 def detect_chessboard(
     image: npt.NDArray[np.uint8],
-    pattern_size: tuple[int, int],
+    pattern_size: Sequence[int],
     *,
     dtype: npt.DTypeLike,
     raise_on_failure: bool = False,
@@ -451,7 +451,7 @@ def imread_gray(path: Union[str, PathLike[str]]) -> npt.NDArray[np.uint8]:
     """A JPEG or PNG file as 8-bit grey (H, W), as the calib command reads it."""
 
 def board_points(
-    pattern_size: tuple[int, int], square: float = 1.0, *, dtype: Optional[npt.DTypeLike] = None
+    pattern_size: Sequence[int], square: float = 1.0, *, dtype: Optional[npt.DTypeLike] = None
 ) -> npt.NDArray[Any]:
     """(c * square, r * square, 0) row-major, (N, 3), in detect_chessboard's order."""
 
