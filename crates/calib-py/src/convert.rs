@@ -179,6 +179,26 @@ pub fn view_list<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Vec<Bound
     iter.collect()
 }
 
+/// The items of a per-camera list of image sizes: a list or tuple of `(width, height)`, or an
+/// array of shape (C, 2) (one row per camera).
+pub fn size_list<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let bad = || {
+        PyTypeError::new_err(format!(
+            "{what}: expected a list of (width, height), one per camera, got {}",
+            short_repr(obj)
+        ))
+    };
+    if obj.is_instance_of::<PyString>() || obj.is_instance_of::<PyDict>() {
+        return Err(bad());
+    }
+    if let Ok(a) = obj.cast::<PyUntypedArray>()
+        && a.ndim() != 2
+    {
+        return Err(bad());
+    }
+    obj.try_iter().map_err(|_| bad())?.collect()
+}
+
 /// Two per-view lists of equal length.
 pub fn check_same_length(a: usize, what_a: &str, b: usize, what_b: &str) -> PyResult<()> {
     if a != b {

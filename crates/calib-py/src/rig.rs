@@ -135,7 +135,7 @@ fn calibrate_rig_py(
         max_iterations,
         threads,
     };
-    let sizes: Vec<_> = convert::view_list(image_sizes, "image_sizes")?
+    let sizes: Vec<_> = convert::size_list(image_sizes, "image_sizes")?
         .iter()
         .enumerate()
         .map(|(i, s)| convert::image_size(s, &format!("image_sizes[{i}]")))

@@ -114,6 +114,10 @@ def test_rig_bit_for_bit_with_the_calib_command(calib_cli, tmp_path):
     by_name = calib.calibrate_rig([size, size], obj, [{"left": l, "right": r} for l, r in zip(left, right)],
                                   names=["left", "right"])
     assert as_list.rms == by_name.rms == rms
+    # The image sizes as a (cameras, 2) array, one row per camera.
+    sizes = calib.calibrate_rig(np.array([size, size]), obj, [[l, r] for l, r in zip(left, right)],
+                                names=["left", "right"])
+    assert sizes.rms == rms
     assert result.frame_indices == list(range(len(obj)))
     assert set(result.per_view_rms[0]) == {0, 1}
     assert result.tree_parent == [None, 0]
@@ -187,6 +191,8 @@ def test_rig_errors():
         calib.calibrate_rig([size, size], obj, frames, models=["brown-conrady4"])
     with pytest.raises(ValueError, match=r"image_sizes\[1\]"):
         calib.calibrate_rig([size, (0, 3)], obj, frames)
+    with pytest.raises(TypeError, match=r"^image_sizes: expected a list of \(width, height\), one per camera"):
+        calib.calibrate_rig(np.array(size), obj, frames)
     with pytest.raises(ValueError, match="both named 'a'"):
         calib.calibrate_rig([size, size], obj, frames, names=["a", "a"])
     with pytest.raises(ValueError, match="'tangential' holds p1, p2"):
