@@ -149,8 +149,8 @@ fn project_points<'py>(
     let rows = convert::point_rows::<3>(object_points, "object_points")?;
     if let Some(i) = rows.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
         return Err(PyValueError::new_err(format!(
-            "object_points[{i}]: the values must be finite, got {:?}",
-            rows[i].map(convert::py_float)
+            "object_points[{i}]: the values must be finite, got [{}]",
+            rows[i].map(convert::py_float).join(", ")
         )));
     }
     let pose = convert::pose(rvec, tvec, "rvec", "tvec")?;

@@ -90,7 +90,9 @@ def test_bad_arguments_are_named():
     cases = [
         ((pts[:, :2], r, t, K), {}, r"^object_points: expected an array of shape \(N, 3\)"),
         ((pts.reshape(1, 2, 1, 3), r, t, K), {}, r"^object_points: "),
-        ((np.array([[0.0, 0, 1], [np.nan, 0, 1]]), r, t, K), {}, r"^object_points\[1\]: the values must be finite"),
+        # The values as Python prints them, not as quoted strings.
+        ((np.array([[0.0, 0, 1], [np.nan, 0, 1]]), r, t, K), {},
+         r"^object_points\[1\]: the values must be finite, got \[nan, 0\.0, 1\.0\]$"),
         ((pts, np.zeros(4), t, K), {}, r"^rvec"),
         ((pts, [0, np.inf, 0], t, K), {}, r"^rvec: the values must be finite"),
         ((pts, np.eye(3) * 2, t, K), {}, r"^rvec: not a rotation matrix"),
