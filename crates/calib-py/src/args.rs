@@ -3,8 +3,8 @@
 //! (`max_iterations: expected an int, got str`); pyo3's own extraction puts the name only in the
 //! exception's `__notes__`.
 
-use crate::convert::type_name;
-use pyo3::exceptions::PyTypeError;
+use crate::convert::{short_repr, type_name};
+use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 /// `obj` as a `T`, or an error of the same type naming the argument `name` (a `TypeError` says
@@ -22,6 +22,9 @@ where
                 "{name}: expected {expected}, got {}",
                 type_name(obj)
             ))
+        } else if e.is_instance_of::<PyOverflowError>(py) {
+            // An int beyond i64 (or f64): out of range, as a smaller out-of-range value is.
+            PyValueError::new_err(format!("{name}: {} is out of range", short_repr(obj)))
         } else {
             PyErr::from_type(e.get_type(py), format!("{name}: {}", e.value(py)))
         }

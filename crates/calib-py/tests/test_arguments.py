@@ -198,3 +198,11 @@ def test_one_view_in_cv2_shape_without_the_list_is_named(left):
     stacked = calib.calibrate_camera(np.stack(obj[:6]), np.stack(img[:6]), size)
     assert stacked.rms == calib.calibrate_camera(obj[:6], img[:6], size).rms
 
+
+def test_ints_beyond_64_bits_are_out_of_range_value_errors(left):
+    # As a smaller out-of-range value (threads=10**6), not pyo3's OverflowError.
+    obj, img, size = left
+    for kw in [dict(threads=2**63), dict(max_iterations=-2**64), dict(loss_scale=10**400)]:
+        name = next(iter(kw))
+        with pytest.raises(ValueError, match=f"^{name}: .*out of range"):
+            calib.calibrate_camera(obj, img, size, **kw)
