@@ -310,3 +310,26 @@ def test_rig_results_are_written_in_every_format_and_read_back(tmp_path):
 
     with pytest.raises(ValueError, match="expected 3 items"):
         calib.write_calibration(tmp_path / "bad.yaml", dict(back, Ks=back["Ks"][:2]), "opencv")
+
+
+def test_float32_rotation_matrices_are_rotations(stereo, tmp_path):
+    # A rotation rounded to float32 (cv2.FileStorage with dt: f, cv2's float32 outputs) is
+    # orthonormal to about 1e-7 only; it is accepted as calib-export accepts it (to 1e-6),
+    # wherever a rotation matrix is taken.
+    result, size = stereo
+    K1, D1, K2, D2, R, T = (getattr(result, k) for k in ("K1", "D1", "K2", "D2", "R", "T"))
+    R32 = R.astype(np.float32)
+    assert np.abs(R32.astype(np.float64).T @ R32 - np.eye(3)).max() > 1e-9
+    expected = calib.stereo_rectify(K1, D1, K2, D2, size, R32.astype(np.float64), T)
+    got = calib.stereo_rectify(K1, D1, K2, D2, size, R32, T)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+    pts = np.array([[100.0, 50.0], [400.0, 300.0]])
+    assert np.isfinite(calib.undistort_points(pts, K1, D1, R=R32)).all()
+    board = np.array([[0.0, 0, 500], [10, 0, 500], [0, 10, 500]])
+    assert calib.project_points(board, R32, T, K1, D1).shape == (3, 2)
+    d = {"K1": K1, "D1": D1, "K2": K2, "D2": D2, "R": R32, "T": T, "image_size": size}
+    assert calib.write_calibration(tmp_path / "s.yaml", d)
+    # Still refused: a matrix that is not a rotation to 1e-6.
+    with pytest.raises(ValueError, match="^R: not a rotation matrix"):
+        calib.stereo_rectify(K1, D1, K2, D2, size, R * (1 + 1e-5), T)
