@@ -257,6 +257,21 @@ impl ModelRow {
         self.inner.error.clone()
     }
 
+    /// A row from the JSON form of one row (what ``__reduce__`` gives ``pickle``).
+    #[staticmethod]
+    fn _from_json(text: &str) -> PyResult<Self> {
+        let inner = serde_json::from_str(text)
+            .map_err(|e| PyValueError::new_err(format!("text: not a model row: {e}")))?;
+        Ok(Self { inner })
+    }
+
+    /// Pickling (and ``copy``) through the JSON form, as :class:`ModelComparison`'s.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let from_json = py.get_type::<Self>().getattr("_from_json")?;
+        let text = serde_json::to_string(&self.inner).map_err(calibration_error)?;
+        Ok((from_json, (text,)))
+    }
+
     fn __repr__(&self) -> String {
         let px = |v: Option<f64>| v.map_or("None".to_string(), |v| format!("{v:.5}"));
         format!(

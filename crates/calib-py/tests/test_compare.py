@@ -127,3 +127,16 @@ def test_the_gil_is_released_while_comparing():
         t.join()
     # With the GIL held for the whole call the other thread could not have counted at all.
     assert during > 1000, during
+
+
+def test_rows_pickle_and_copy_like_the_comparison():
+    # ModelComparison pickles; its rows are values too (multiprocessing returns them, deepcopy
+    # copies them), through the same JSON form.
+    obj, img, size = single_arrays("sourishg1/left.json")
+    c = calib.compare_models(obj[:6], img[:6], size, models=["brown-conrady4", "rational8"])
+    for row in c.rows:
+        for again in [pickle.loads(pickle.dumps(row)), copy.copy(row), copy.deepcopy(row)]:
+            assert type(again) is calib.ModelRow and repr(again) == repr(row)
+            for name in ["model", "parameters", "rms", "cross_validated_rms", "valid_over_image", "error"]:
+                assert getattr(again, name) == getattr(row, name), name
+            assert [(w.code, w.message) for w in again.warnings] == [(w.code, w.message) for w in row.warnings]
