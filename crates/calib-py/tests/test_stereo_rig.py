@@ -215,3 +215,14 @@ def test_rig_fix_names_per_camera_model(calib_cli, tmp_path):
     with pytest.raises(ValueError, match="no camera's model has a coefficient 's1'"):
         calib.calibrate_rig([size, size], obj, [{0: l, 1: r} for l, r in zip(left, right)],
                             models=["brown-conrady4", "kannala-brandt4"], fix="s1")
+
+
+def test_duplicate_pair_warning_reads_in_the_singular():
+    obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
+    obj, left, right = obj[:10], left[:10], right[:10]
+    one = calib.stereo_calibrate(obj + obj[:1], left + left[:1], right + right[:1], size)
+    [w] = [w for w in one.warnings if w.code == "duplicate-views"]
+    assert w.message.startswith("1 pair repeats an earlier pair "), w.message
+    two = calib.stereo_calibrate(obj + obj[:2], left + left[:2], right + right[:2], size)
+    [w] = [w for w in two.warnings if w.code == "duplicate-views"]
+    assert w.message.startswith("2 pairs repeat an earlier pair "), w.message

@@ -78,9 +78,9 @@ pub fn calibrate_stereo(
                 warnings.push(Warning::new(
                     WarningCode::DuplicateViews,
                     format!(
-                        "{} pair{} repeat an earlier pair (the board did not move, or files are listed twice) and {} left out: {}{}",
+                        "{} {} an earlier pair (the board did not move, or files are listed twice) and {} left out: {}{}",
                         copies.len(),
-                        if copies.len() > 1 { "s" } else { "" },
+                        if copies.len() > 1 { "pairs repeat" } else { "pair repeats" },
                         if copies.len() > 1 { "were" } else { "was" },
                         described.join(", "),
                         if copies.len() > 10 { ", ..." } else { "" }
