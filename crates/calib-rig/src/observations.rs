@@ -95,6 +95,7 @@ fn points3(v: &[[f64; 3]]) -> Vec<Point3<f64>> {
 
 impl JsonFile for RigObservations {
     type File = RigFile;
+    const KIND: Option<calib_core::io::JsonKind> = Some(calib_core::io::JsonKind::RigObservations);
 
     fn from_file(file: RigFile) -> Self {
         let cameras: Vec<RigCameraInput> = file

@@ -47,6 +47,8 @@ pub struct ObservationFile {
 
 impl JsonFile for Observations {
     type File = ObservationFile;
+    const KIND: Option<calib_core::io::JsonKind> =
+        Some(calib_core::io::JsonKind::SingleObservations);
 
     fn from_file(file: ObservationFile) -> Self {
         Self {

@@ -87,6 +87,8 @@ fn points2(v: &[[f64; 2]]) -> Vec<Point2<f64>> {
 
 impl JsonFile for StereoObservations {
     type File = StereoFile;
+    const KIND: Option<calib_core::io::JsonKind> =
+        Some(calib_core::io::JsonKind::StereoObservations);
 
     fn from_file(file: StereoFile) -> Self {
         let pairs = file

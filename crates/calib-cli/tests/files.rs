@@ -1,0 +1,140 @@
+//! Files as users give them: the wrong kind of file, a byte order mark, pipes, links,
+//! read-only results, and drawings into the images' own folder.
+
+use std::process::Command;
+
+fn calib() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_calib"))
+}
+
+fn data(path: &str) -> String {
+    format!("{}/../../data/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A fresh scratch folder `name` for one test.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("calib-cli-files")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `command`, expecting failure with one line on stderr; returns that line.
+fn fails(command: &mut Command) -> String {
+    let run = command.output().unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// A stereo file given to `calib single`, a single camera's to `calib rig`, a result given
+/// where observations are read: the message says what the file is and which command reads it,
+/// not serde's "missing field `views` at line 11472".
+#[test]
+fn a_file_of_another_kind_is_named() {
+    let err = fails(calib().args(["single", &data("sourishg1/stereo.json")]));
+    assert!(
+        err.contains("this is a stereo observation file")
+            && err.contains("calib stereo reads it")
+            && !err.contains("missing field"),
+        "{err}"
+    );
+    let err = fails(calib().args(["rig", &data("sourishg1/left.json")]));
+    assert!(
+        err.contains("this is a single camera's observation file")
+            && err.contains("not a rig observation file"),
+        "{err}"
+    );
+    let dir = scratch("kind");
+    let result = dir.join("result.json");
+    let run = calib()
+        .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
+        .arg(&result)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let err = fails(calib().arg("stereo").arg(&result));
+    assert!(
+        err.contains("this is a result of calib single")
+            && err.contains("give the observation file it was calibrated from"),
+        "{err}"
+    );
+    let empty = dir.join("empty.json");
+    std::fs::write(&empty, "").unwrap();
+    let err = fails(calib().arg("single").arg(&empty));
+    assert!(err.ends_with("empty.json: the file is empty\n"), "{err}");
+}
+
+/// A file saved with a UTF-8 byte order mark (Notepad, PowerShell) is read like any other.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let dir = scratch("bom");
+    let file = dir.join("left.json");
+    let text = std::fs::read_to_string(data("sourishg1/left.json")).unwrap();
+    std::fs::write(&file, format!("\u{feff}{}", text.replace('\n', "\r\n"))).unwrap();
+    let run = calib().arg("single").arg(&file).arg("-q").output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+}
+
+/// `-o` through a link writes the file it names (the link stays); into a named pipe (`mkfifo`,
+/// `-o >(jq .)`) writes through it instead of replacing it by a file (the same path as root
+/// would replace `/dev/null` or `/dev/stdout`); a read-only previous result is refused and kept.
+#[cfg(unix)]
+#[test]
+fn links_pipes_and_read_only_results() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("paths");
+    let real = dir.join("real.json");
+    let link = dir.join("link.json");
+    std::fs::write(&real, "{}").unwrap();
+    std::os::unix::fs::symlink("real.json", &link).unwrap();
+    let obs = data("sourishg1/left.json");
+    let run = calib()
+        .args(["single", &obs, "-q", "-o"])
+        .arg(&link)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(std::fs::read_to_string(&real).unwrap().contains("\"rms\""));
+
+    let fifo = dir.join("fifo");
+    if Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+        };
+        let run = calib()
+            .args(["single", &obs, "-q", "-o"])
+            .arg(&fifo)
+            .output()
+            .unwrap();
+        assert!(run.status.success());
+        assert!(reader.join().unwrap().contains("\"rms\""));
+        let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(!kind.is_file(), "the pipe was replaced by a file");
+    }
+
+    std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let before = std::fs::read(&real).unwrap();
+    let err = fails(calib().args(["single", &obs, "-q", "-o"]).arg(&real));
+    assert!(err.contains("read-only"), "{err}");
+    assert_eq!(std::fs::read(&real).unwrap(), before);
+}
