@@ -2,7 +2,7 @@
 //! from photographs (crate `board-detect`, `docs/board-detect.md`).
 
 use crate::{Failure, parse_size, write_json};
-use board_detect::{Board, DetectOptions, ImageResult, detect_file, write_overlay_png};
+use board_detect::{Board, DetectOptions, ImageResult, detect_file, draw_detection};
 use clap::Args;
 use serde_json::Value;
 use std::io::{IsTerminal, Write};
@@ -144,17 +144,35 @@ pub fn overlay_paths(dir: &Path, cameras: &[(&str, &[PathBuf])]) -> Vec<Vec<Path
         .collect()
 }
 
-/// Writes the overlay of one image (a failure to draw is reported, not fatal).
+/// Refuses overlays (`--draw DIR`) that would replace one of the input images: a PNG photograph
+/// in DIR has the name of its overlay.
+pub fn check_overlays(overlays: &[&[PathBuf]], inputs: &[&[PathBuf]]) -> Result<(), Failure> {
+    let inputs: Vec<&str> = inputs
+        .iter()
+        .flat_map(|paths| paths.iter())
+        .map(|p| p.to_str().unwrap_or(""))
+        .collect();
+    for out in overlays.iter().flat_map(|paths| paths.iter()) {
+        crate::run::check_not_input(&out.to_string_lossy(), &inputs).map_err(|_| {
+            Failure(format!(
+                "--draw: the drawing {} would replace that input image; draw into another folder",
+                out.display()
+            ))
+        })?;
+    }
+    Ok(())
+}
+
+/// Writes the overlay of one image, atomically (a failure to draw is reported, not fatal).
 fn draw(out: &Path, path: &Path, board: &Board, result: &ImageResult, options: &DetectOptions) {
     let Ok(image) = board_detect::load_gray(path, options) else {
         return;
     };
-    if let Err(e) = write_overlay_png(out, &image, board, result.outcome.as_ref().ok()) {
-        let _ = writeln!(
-            std::io::stderr(),
-            "calib: cannot draw {}: {e}",
-            out.display()
-        );
+    let drawn = draw_detection(&image, board, result.outcome.as_ref().ok());
+    let written =
+        calib_export::remap::write_image(&board_detect::image::DynamicImage::ImageRgb8(drawn), out);
+    if let Err(e) = written {
+        let _ = writeln!(std::io::stderr(), "calib: cannot draw: {e}");
     }
 }
 
@@ -242,6 +260,9 @@ pub fn single_observations(
         .draw
         .as_ref()
         .map(|dir| overlay_paths(dir, &[("", paths)]).remove(0));
+    if let Some(overlays) = &overlays {
+        check_overlays(&[overlays], &[paths])?;
+    }
     let results = detect_all(paths, board, overlays.as_deref(), threads, "")?;
     let file = board_detect::observations_json(&results, board);
     require_views(&file, paths.len(), false)?;
@@ -268,6 +289,9 @@ pub fn stereo_observations(
         .draw
         .as_ref()
         .map(|dir| overlay_paths(dir, &[("left", left), ("right", right)]));
+    if let Some(overlays) = &overlays {
+        check_overlays(&[&overlays[0], &overlays[1]], &[left, right])?;
+    }
     let overlays_of = |k: usize| overlays.as_ref().map(|o| o[k].as_slice());
     let l = detect_all(left, board, overlays_of(0), threads, "left ")?;
     let r = detect_all(right, board, overlays_of(1), threads, "right ")?;

@@ -138,3 +138,28 @@ fn links_pipes_and_read_only_results() {
     assert!(err.contains("read-only"), "{err}");
     assert_eq!(std::fs::read(&real).unwrap(), before);
 }
+
+/// `--draw DIR` into the folder of PNG photographs: the drawing of `left1.png` would be
+/// `DIR/left1.png`, the photograph itself; it is refused before anything is written.
+#[test]
+fn drawings_never_replace_an_input_image() {
+    let dir = scratch("draw");
+    let photo = dir.join("left1.png");
+    board_detect::image::open(data("sourishg1/images/left1.jpg"))
+        .unwrap()
+        .save(&photo)
+        .unwrap();
+    let before = std::fs::read(&photo).unwrap();
+    let obs = dir.join("obs.json");
+    let err = fails(
+        calib()
+            .args(["detect", "--board", "9x6", "-q", "-o"])
+            .arg(&obs)
+            .arg("--draw")
+            .arg(&dir)
+            .arg(&photo),
+    );
+    assert!(err.contains("--draw") && err.contains("left1.png"), "{err}");
+    assert_eq!(std::fs::read(&photo).unwrap(), before);
+    assert!(!obs.exists());
+}
