@@ -407,8 +407,9 @@ pub struct UndistortArgs {
     /// Images to undistort (JPEG or PNG), all of the calibrated size.
     #[arg(required = true, value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
-    /// Output folder: each image keeps its file name (and format); the new camera matrix goes
-    /// to DIR/undistortion.json.
+    /// Output folder (created if needed): each image keeps its file name (and format), replacing
+    /// a file of that name (refused when that is an input image); the new camera matrix goes to
+    /// DIR/undistortion.json; other files in DIR are left alone.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
     /// Free scaling: 0 keeps only valid pixels, 1 keeps every source pixel (OpenCV's
@@ -531,8 +532,9 @@ pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
     let camera = read_camera(&args.camera, "CAMERA", args.camera_name.as_deref())?;
     let (k_new, roi) = optimal_new_camera_matrix(&camera.camera, camera.image_size, args.alpha)
         .map_err(|e| Failure(format!("{}: {e}", args.camera)))?;
-    std::fs::create_dir_all(&args.output)
-        .map_err(|e| Failure(format!("-o {}: {e}", args.output.display())))?;
+    if args.output.exists() && !args.output.is_dir() {
+        crate::create_folder(&args.output, "-o")?;
+    }
     let images: Vec<&PathBuf> = args.images.iter().collect();
     let mut inputs: Vec<String> = args
         .images
@@ -545,6 +547,8 @@ pub fn run_undistort(args: &UndistortArgs) -> Result<(), Failure> {
     let sidecar = args.output.join("undistortion.json");
     check_not_input(&sidecar.to_string_lossy(), &input_refs)?;
     check_images(&images, camera.image_size)?;
+    // Created once the inputs are checked: a refused run leaves no empty folder behind.
+    crate::create_folder(&args.output, "-o")?;
     let start = std::time::Instant::now();
     with_threads(args.threads, || {
         let map = PixelMap::undistort(&camera, &k_new).map_err(|e| Failure(e.to_string()))?;
@@ -680,8 +684,7 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
         write_json(path, &rect.to_json())?;
     }
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| Failure(format!("--out {}: {e}", dir.display())))?;
+        crate::create_folder(dir, "--out")?;
         let mut inputs: Vec<String> = args
             .images
             .iter()
@@ -698,8 +701,7 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
         let left_out = output_paths(&left, &left_dir, &input_refs)?;
         let right_out = output_paths(&right, &right_dir, &input_refs)?;
         for d in [&left_dir, &right_dir] {
-            std::fs::create_dir_all(d)
-                .map_err(|e| Failure(format!("--out {}: {e}", d.display())))?;
+            crate::create_folder(d, "--out")?;
         }
         let k = rect.camera_matrix();
         with_threads(args.threads, || {
@@ -747,9 +749,13 @@ pub fn write_report_to(
     input: &calib_export::ReportInput,
     dir: &Path,
     say: Say,
+    option: &str,
 ) -> Result<(), Failure> {
+    if dir.exists() && !dir.is_dir() {
+        crate::create_folder(dir, option)?;
+    }
     let written = calib_export::write_report(input, dir)
-        .map_err(|e| Failure(format!("--report {}: {e}", dir.display())))?;
+        .map_err(|e| Failure(format!("{option} {}: {e}", dir.display())))?;
     say.text(&format!(
         "report: {} ({} files)\n",
         dir.join("index.html").display(),
@@ -767,7 +773,9 @@ pub struct ReportArgs {
     /// needed for the residual, coverage and uncertainty plots.
     #[arg(long, value_name = "OBS.json")]
     pub observations: Option<String>,
-    /// Folder to write index.html and the SVG plots into.
+    /// Folder to write index.html and the SVG plots into (created if needed). A previous
+    /// report's files there are replaced (its plots this report lacks removed); other files
+    /// are left alone.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
     /// Do not print where the report went.
@@ -825,6 +833,7 @@ pub fn run_report(args: &ReportArgs) -> Result<(), Failure> {
         } else {
             Say::Stdout
         },
+        "-o",
     )
 }
 

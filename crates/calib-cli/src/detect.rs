@@ -20,7 +20,8 @@ pub struct BoardArgs {
     #[arg(long, default_value_t = 1.0, value_name = "SIZE")]
     pub square: f64,
     /// Write each image as PNG into DIR with the detected corners, their labels and the board
-    /// outline drawn.
+    /// outline drawn: DIR/<image name>.png, replacing a file of that name (refused when that
+    /// is an input image); other files in DIR are left alone.
     #[arg(long, value_name = "DIR")]
     pub draw: Option<PathBuf>,
 }
@@ -74,8 +75,7 @@ pub fn detect_all(
     use rayon::prelude::*;
     if let Some(overlays) = overlays {
         for dir in overlays.iter().filter_map(|p| p.parent()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| Failure(format!("--draw {}: {e}", dir.display())))?;
+            crate::create_folder(dir, "--draw")?;
         }
     }
     let options = DetectOptions::default();

@@ -94,6 +94,18 @@ pub fn write_json(path: &str, value: &serde_json::Value) -> Result<(), Failure> 
     }
 }
 
+/// Creates the output folder `dir` (of `option`) if needed; a file in its place is named as such
+/// (instead of "File exists").
+pub fn create_folder(dir: &std::path::Path, option: &str) -> Result<(), Failure> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Failure(format!(
+            "{option} {}: that is a file, not a folder; give a folder for the output files",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Failure(format!("{option} {}: {e}", dir.display())))
+}
+
 /// Writes to stdout, reporting a closed pipe or a full disk as a failure instead of panicking
 /// like `print!`.
 pub fn print_stdout(text: &str) -> Result<(), Failure> {

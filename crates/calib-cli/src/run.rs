@@ -11,7 +11,9 @@ use std::time::Duration;
 /// Output arguments of the calibration commands.
 #[derive(Args, Debug)]
 pub struct OutputArgs {
-    /// Write the full result as JSON to this file ("-" for stdout).
+    /// Write the full result as JSON to this file ("-" for stdout). A previous file is replaced
+    /// whole, only once the run has succeeded (a failed or interrupted run leaves it as it was);
+    /// a read-only one is refused.
     #[arg(short, long, value_name = "RESULT.json")]
     pub output: Option<String>,
     /// Do not print the summary.
@@ -28,7 +30,7 @@ pub struct OutputArgs {
     pub export: Vec<String>,
     /// Write an HTML report with plots (residuals, mean residuals, residual scatter, coverage,
     /// per-view RMS, board poses, distortion, projection uncertainty) into DIR (see calib
-    /// report).
+    /// report; other files in DIR are left alone).
     #[arg(long, value_name = "DIR")]
     pub report: Option<std::path::PathBuf>,
     /// Refuse input files larger than this many megabytes.
@@ -60,9 +62,14 @@ impl OutputArgs {
         self.max_input_mb.saturating_mul(1 << 20)
     }
 
-    /// Refuses, before any work, output files (`-o`, `--export`) whose directory does not exist:
+    /// Refuses, before any work, output files (`-o`, `--export`) whose directory does not exist, and
+    /// a `--report` folder that is a file:
     /// found after the calibration, the failure would come after some files were written.
     pub fn check_directories(&self, targets: &[crate::after::ExportTarget]) -> Result<(), Failure> {
+        if let Some(dir) = self.report.as_deref().filter(|d| d.exists() && !d.is_dir()) {
+            // A file where the report's folder should be: refused before the result is written.
+            crate::create_folder(dir, "--report")?;
+        }
         let outputs = self
             .output
             .iter()

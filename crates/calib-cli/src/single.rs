@@ -476,7 +476,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::single(&result, Some(&observations))?;
-        crate::after::write_report_to(&input, dir, args.output.say())?;
+        crate::after::write_report_to(&input, dir, args.output.say(), "--report")?;
     }
     Ok(())
 }

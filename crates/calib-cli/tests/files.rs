@@ -163,3 +163,65 @@ fn drawings_never_replace_an_input_image() {
     assert_eq!(std::fs::read(&photo).unwrap(), before);
     assert!(!obs.exists());
 }
+
+/// An output folder (`undistort -o`, `rectify --out`, `--report`, `report -o`) given as an
+/// existing file is named as such, before anything is written; a refused `calib undistort`
+/// leaves no empty folder behind.
+#[test]
+fn an_output_folder_that_is_a_file_is_named() {
+    let dir = scratch("folders");
+    let obs = data("sourishg1/left.json");
+    let result = dir.join("result.json");
+    let old = dir.join("old.json");
+    std::fs::write(&old, "{}").unwrap();
+    let err = fails(
+        calib()
+            .args(["single", &obs, "-q", "-o"])
+            .arg(&result)
+            .arg("--report")
+            .arg(&old),
+    );
+    assert!(
+        err.contains("--report") && err.contains("that is a file, not a folder"),
+        "{err}"
+    );
+    assert!(
+        !result.exists(),
+        "the result was written before the refusal"
+    );
+    let run = calib()
+        .args(["single", &obs, "-q", "-o"])
+        .arg(&result)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let err = fails(calib().arg("report").arg(&result).arg("-o").arg(&old));
+    assert!(
+        err.starts_with("calib: -o ") && err.contains("not a folder"),
+        "{err}"
+    );
+    let image = data("sourishg1/images/left1.jpg");
+    let err = fails(
+        calib()
+            .arg("undistort")
+            .arg(&result)
+            .arg("-o")
+            .arg(&old)
+            .arg(&image),
+    );
+    assert!(err.contains("not a folder"), "{err}");
+    assert_eq!(std::fs::read(&old).unwrap(), b"{}");
+    // A bad image: refused, and no folder made.
+    let text = dir.join("text.jpg");
+    std::fs::write(&text, "hello").unwrap();
+    let out = dir.join("undistorted");
+    fails(
+        calib()
+            .arg("undistort")
+            .arg(&result)
+            .arg("-o")
+            .arg(&out)
+            .arg(&text),
+    );
+    assert!(!out.exists());
+}
