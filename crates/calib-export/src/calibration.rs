@@ -175,8 +175,9 @@ impl StereoRig {
     }
 }
 
-/// Refuses a matrix that is not a rotation (orthonormal to 1e-6, determinant +1).
-pub(crate) fn check_rotation(r: &Matrix3<f64>, what: &str) -> Result<(), ExportError> {
+/// Refuses a matrix that is not a rotation (orthonormal to 1e-6, determinant +1): the error
+/// names the value as `what` (`R: not a rotation matrix (...)`).
+pub fn check_rotation(r: &Matrix3<f64>, what: &str) -> Result<(), ExportError> {
     let orthogonality = (r.transpose() * r - Matrix3::identity()).amax();
     if !(orthogonality < 1e-6 && (r.determinant() - 1.0).abs() < 1e-6) {
         return Err(ExportError::invalid(

@@ -292,21 +292,15 @@ pub fn check_finite(values: &[f64], what: &str) -> PyResult<()> {
 }
 
 /// A rotation: a 3x3 rotation matrix or a Rodrigues vector of 3 values (shape (3,), (3, 1) or
-/// (1, 3)), as cv2 accepts either. The matrix must be orthonormal with determinant +1 to 1e-6,
-/// calib-export's tolerance (`check_rotation`), so that a rotation rounded to float32 (about
-/// 1e-7 off) is one; it is used as given.
+/// (1, 3)), as cv2 accepts either. The matrix must pass calib-export's `check_rotation`
+/// (orthonormal with determinant +1 to 1e-6), so that a rotation rounded to float32 (about 1e-7
+/// off) is one; it is used as given.
 pub fn rotation(r: &Bound<'_, PyAny>, what: &str) -> PyResult<Matrix3<f64>> {
     let array = as_f64(r, what)?;
     if array.shape() == [3, 3] {
         let m = matrix3(r, what)?;
-        let orthonormal = m.iter().all(|v| v.is_finite())
-            && (m.transpose() * m - Matrix3::identity()).amax() < 1e-6
-            && (m.determinant() - 1.0).abs() < 1e-6;
-        if !orthonormal {
-            return Err(PyValueError::new_err(format!(
-                "{what}: not a rotation matrix (R^T R != I or det R != 1, to 1e-6)"
-            )));
-        }
+        calib_export::calibration::check_rotation(&m, what)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(m)
     } else {
         let w = vector_n(r, 3, &format!("{what} (a 3x3 matrix or a rotation vector)"))?;
