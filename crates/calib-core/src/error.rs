@@ -327,6 +327,30 @@ impl CalibrationError {
         }
     }
 
+    /// [`CalibrationError::views_to_skip`] as skipped views, for a caller whose observation
+    /// `o` is the input view `views[o]` (`(index, name)`), each with its own reason.
+    pub fn skipped_views(&self, views: &[(usize, String)]) -> Vec<crate::SkippedView> {
+        let also: &[OutlierView] = match self {
+            CalibrationError::MostlyOutliers { also, .. } => also,
+            _ => &[],
+        };
+        self.views_to_skip(views.len())
+            .into_iter()
+            .map(|o| {
+                let (index, name) = views[o].clone();
+                let reason = also
+                    .iter()
+                    .find(|v| v.observation == o)
+                    .map_or_else(|| self.detail(), OutlierView::detail);
+                crate::SkippedView {
+                    index,
+                    name,
+                    reason,
+                }
+            })
+            .collect()
+    }
+
     /// The observations a caller that skips bad views leaves out after this error (empty for
     /// every error but [`CalibrationError::MostlyOutliers`]): the one it names and, when the
     /// views past the limit are few (at most a tenth of the `num_observations`), every other one

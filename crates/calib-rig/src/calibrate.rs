@@ -222,22 +222,62 @@ fn start_camera(
         camera: input.name.clone(),
         source,
     };
-    let prepared =
-        prepare_camera(&views, Some(input.image_size), &camera_options).map_err(camera_error)?;
-    let method = if given.is_some() {
-        "given".to_string()
-    } else {
-        prepared.start_method.name().to_string()
-    };
-    let frames: Vec<usize> = prepared.views.iter().map(|(f, _)| *f).collect();
-    let skipped = prepared.skipped.clone();
     let mut solve = camera_options.solve_options();
     solve.rotation = options.rotation;
     solve.outliers = options.outliers;
     solve.solver.num_threads = options.solver.num_threads;
-    let (mut spec, solution) = prepared
-        .solve_for_start(&input.name, &solve)
-        .map_err(camera_error)?;
+    // Views whose points mostly miss the camera's own model (a view of another lens, pixels
+    // scrambled in part) are left out with skip_bad_views and the camera solved again, as calib
+    // single does; they then leave the rig with the views its checks left out.
+    let mut dropped: Vec<calib_core::SkippedView> = Vec::new();
+    let (method, frames, skipped, mut spec, solution) = loop {
+        let kept: Vec<(usize, &View)> = views
+            .iter()
+            .filter(|(f, _)| !dropped.iter().any(|d| d.index == *f))
+            .copied()
+            .collect();
+        let prepared =
+            prepare_camera(&kept, Some(input.image_size), &camera_options).map_err(camera_error)?;
+        let method = if given.is_some() {
+            "given".to_string()
+        } else {
+            prepared.start_method.name().to_string()
+        };
+        let frames: Vec<usize> = prepared.views.iter().map(|(f, _)| *f).collect();
+        let names = prepared.views.clone();
+        let mut skipped = prepared.skipped.clone();
+        match prepared.solve_for_start(&input.name, &solve) {
+            Ok((spec, solution)) => {
+                skipped.extend(dropped);
+                skipped.sort_by_key(|s| s.index);
+                break (method, frames, skipped, spec, solution);
+            }
+            Err(e @ CalibrationError::MostlyOutliers { .. }) if camera_options.skip_bad_views => {
+                dropped.extend(e.skipped_views(&names));
+            }
+            Err(CalibrationError::MostlyOutliers {
+                observation,
+                rejected,
+                points,
+                mut also,
+                ..
+            }) => {
+                // Named in the rig's terms (frame and camera), not the camera stage's views.
+                let at = |o: usize| format!("frame {}, camera '{}'", names[o].0, input.name);
+                for v in &mut also {
+                    v.location = at(v.observation);
+                }
+                return Err(camera_error(CalibrationError::MostlyOutliers {
+                    observation,
+                    location: at(observation),
+                    rejected,
+                    points,
+                    also,
+                }));
+            }
+            Err(e) => return Err(camera_error(e)),
+        }
+    };
     if given.is_some() {
         spec.fixed = (0..spec.model().num_params()).collect();
         spec.aspect_ratio = None;

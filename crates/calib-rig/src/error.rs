@@ -69,10 +69,13 @@ pub enum RigError {
 }
 
 /// A [`RigError::Camera`]'s message: `frame 7, camera 'front': ...` for an error about one view,
-/// else `initial calibration of camera 'front': ...`.
+/// or about views that mostly miss the camera's model, else `initial calibration of camera
+/// 'front': ...`.
 fn camera_failure(camera: &str, source: &CalibrationError) -> String {
     match source.view() {
         Some(frame) => format!("frame {frame}, camera '{camera}': {}", source.detail()),
+        // Its location names the frame and the camera already.
+        None if matches!(source, CalibrationError::MostlyOutliers { .. }) => source.to_string(),
         None => format!("initial calibration of camera '{camera}': {source}"),
     }
 }

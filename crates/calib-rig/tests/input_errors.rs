@@ -488,3 +488,54 @@ fn a_frame_whose_views_contradict_each_other_is_left_out_on_request() {
     assert_eq!(result.frames.len() + 1, data.observations.frames.len());
     assert!(result.frames.iter().all(|f| f.index != frame));
 }
+
+/// A view alone in its frame whose pixels come through another lens (pulled towards the centre
+/// by a strong barrel distortion: a homography fits them loosely, so its camera's
+/// own checks pass) misses its camera's model in the camera's own calibration. With
+/// `skip_bad_views` it is left out and the rest calibrated, as calib single does; the option did
+/// nothing at that stage and the rig stopped with "46 of 54 points are outliers ... skip bad
+/// views", the advice the user had followed.
+#[test]
+fn a_view_missing_its_cameras_own_model_is_skipped_on_request() {
+    let mut data = rig(4, 40);
+    let frame = view_with_two_others(&data, 0);
+    data.observations.frames[frame]
+        .observations
+        .retain(|o| o.camera == 0);
+    let size = data.observations.cameras[0].image_size;
+    let centre = nalgebra::Point2::new(size.width as f64 / 2.0, size.height as f64 / 2.0);
+    let diagonal2 = centre.coords.norm_squared();
+    let view = view_mut(&mut data, frame, 0);
+    for p in &mut view.image_points {
+        let d = *p - centre;
+        *p = centre + d * (1.0 - 0.5 * d.norm_squared() / diagonal2);
+    }
+    assert!(view.image_points.iter().all(|p| p.x >= 0.0
+        && p.y >= 0.0
+        && p.x <= size.width as f64
+        && p.y <= size.height as f64));
+    let error = calibrate_rig(&data.observations, &RigOptions::default()).unwrap_err();
+    assert!(
+        matches!(&error, RigError::Camera { camera, source: calib_core::CalibrationError::MostlyOutliers { .. } } if camera == "cam0"),
+        "{error}"
+    );
+    assert!(
+        error
+            .to_string()
+            .starts_with(&format!("frame {frame}, camera 'cam0': 5"))
+            && error.to_string().contains(" of 54 points are outliers"),
+        "{error}"
+    );
+    let result = calibrated_skipping_bad_views(&data.observations);
+    // The frame goes (it had no other view), alone.
+    assert_eq!(result.frames.len() + 1, data.observations.frames.len());
+    assert!(result.frames.iter().all(|f| f.index != frame));
+    assert!(
+        result.warnings.iter().any(|w| w
+            .message
+            .contains(&format!("frame {frame}, camera 'cam0': "))
+            && w.message.contains(" points are outliers")),
+        "{:?}",
+        result.warnings
+    );
+}

@@ -5,8 +5,7 @@ use crate::observations::{Observations, View};
 use crate::result::Calibration;
 use calib_core::single::camera_param_names;
 use calib_core::{
-    CalibrationError, CalibrationOptions, OutlierView, SkippedView, StageTimes, ViewResult,
-    prepare_camera,
+    CalibrationError, CalibrationOptions, SkippedView, StageTimes, ViewResult, prepare_camera,
 };
 use camera_model::{AnyCamera, Pose};
 use nalgebra::Vector2;
@@ -44,21 +43,7 @@ pub fn calibrate(
             // A view whose points mostly miss the model is wrong as a whole: drop it (and
             // others of its round, `views_to_skip`) and start again without it.
             Err(e @ CalibrationError::MostlyOutliers { .. }) if options.skip_bad_views => {
-                let CalibrationError::MostlyOutliers { ref also, .. } = e else {
-                    unreachable!("matched just above")
-                };
-                for observation in e.views_to_skip(prepared.views.len()) {
-                    let (index, name) = prepared.views[observation].clone();
-                    let reason = also
-                        .iter()
-                        .find(|v| v.observation == observation)
-                        .map_or_else(|| e.detail(), OutlierView::detail);
-                    dropped.push(SkippedView {
-                        index,
-                        name,
-                        reason,
-                    });
-                }
+                dropped.extend(e.skipped_views(&prepared.views));
             }
             Err(e) => return Err(e),
         }
