@@ -8,6 +8,8 @@ use numpy::{
 };
 use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use std::io::Read;
+use std::path::Path;
 
 /// `(cols, rows)` of inner corners: a tuple, a list or an array of two integers (Python's or
 /// NumPy's), as cv2's `patternSize` accepts.
@@ -163,9 +165,30 @@ fn detect_chessboard<'py>(
     Ok(Some(array))
 }
 
+/// Why `path` cannot be read, asked again of the operating system: `board_detect` keeps only
+/// the message of the error. A folder is read (which fails, as `open()` does on it); a device
+/// or pipe is not opened again (that could block, or take data).
+fn read_error(path: &Path) -> Option<std::io::Error> {
+    let metadata = match std::fs::metadata(path) {
+        Ok(m) => m,
+        Err(e) => return Some(e),
+    };
+    if metadata.is_dir() {
+        std::fs::File::open(path)
+            .and_then(|mut f| f.read(&mut [0u8; 1]))
+            .err()
+    } else if metadata.is_file() {
+        std::fs::File::open(path).err()
+    } else {
+        None
+    }
+}
+
 /// Reads a JPEG or PNG file as an 8-bit grey image (H, W), the way the ``calib`` command reads
-/// photographs (so detections equal ``calib detect``'s). A missing file raises ``OSError``; an
-/// unsupported or corrupt one :class:`CalibrationError`.
+/// photographs (so detections equal ``calib detect``'s). A file that cannot be read raises the
+/// ``OSError`` subclass ``open()`` raises (``FileNotFoundError``, ``PermissionError``,
+/// ``IsADirectoryError``), with ``filename``; an unsupported or corrupt one
+/// :class:`CalibrationError`.
 #[pyfunction]
 fn imread_gray<'py>(
     py: Python<'py>,
@@ -174,7 +197,9 @@ fn imread_gray<'py>(
     let image = py
         .detach(|| board_detect::load_gray(&path, &DetectOptions::default()))
         .map_err(|e| match e {
-            DetectError::Io { .. } => PyOSError::new_err(e.to_string()),
+            DetectError::Io { .. } => read_error(&path)
+                .and_then(|io| crate::os_error(py, &io, &path.to_string_lossy()))
+                .unwrap_or_else(|| PyOSError::new_err(e.to_string())),
             other => calibration_error(other),
         })?;
     let (w, h) = (image.width() as usize, image.height() as usize);

@@ -9,7 +9,10 @@ use crate::rig::RigCalibrationResult;
 use crate::single::CameraCalibration as CameraResult;
 use crate::stereo::StereoCalibrationResult;
 use calib_core::ImageSize;
-use calib_export::{Calibrated, CameraCalibration, CameraRig, ExportOptions, Format, StereoRig};
+use calib_core::ReadError;
+use calib_export::{
+    Calibrated, CameraCalibration, CameraRig, ExportError, ExportOptions, Format, StereoRig,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -390,7 +393,9 @@ fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
 ///
 /// Each file is written atomically. Returns the paths written (``str``). Raises
 /// :class:`CalibrationError` when the format cannot hold the calibration (e.g. a lens model
-/// Kalibr has no equivalent of) or a file cannot be written.
+/// Kalibr has no equivalent of), and the ``OSError`` subclass ``open(path, "w")`` raises when a
+/// file cannot be written (``FileNotFoundError`` for a missing folder, ``PermissionError``,
+/// ``IsADirectoryError`` for a folder at ``path``, ...), with ``filename`` the file.
 #[pyfunction]
 #[pyo3(
     signature = (path, calibration, format="opencv".to_string(), *, alpha=0.0, translation_scale=1.0),
@@ -410,7 +415,13 @@ fn write_calibration(
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let written = py
         .detach(|| calib_export::export(&calibrated, format, &path, &options))
-        .map_err(calibration_error)?;
+        .map_err(|e| match &e {
+            // A file that cannot be written is the OSError open(path, "w") would raise.
+            ExportError::Write { path, source } => {
+                crate::os_error(py, source, path).unwrap_or_else(|| calibration_error(&e))
+            }
+            _ => calibration_error(e),
+        })?;
     Ok(written
         .iter()
         .map(|p| p.to_string_lossy().into_owned())
@@ -437,8 +448,11 @@ fn camera_items(d: &Bound<'_, PyDict>, c: &CameraCalibration, k: &str, dist: &st
 /// with ``X2 = R X1 + T``. A rig of N cameras: ``kind="rig"``, lists ``names``, ``models``,
 /// ``image_sizes``, ``Ks``, ``dists``, ``Rs`` and ``Ts`` (each camera's transform from the
 /// reference camera, ``X_cam = R X_ref + T``), and ``reference`` (index).
-/// :func:`write_calibration` takes the dict back. Raises
-/// :class:`CalibrationError` naming the file and key at fault.
+/// :func:`write_calibration` takes the dict back. A file that cannot be read raises the
+/// ``OSError`` subclass ``open()`` raises (``FileNotFoundError``, ``PermissionError``,
+/// ``IsADirectoryError``, ...; ``filename`` is the path); a file whose content is wrong (not a
+/// calibration, bad YAML or JSON, a missing key, not UTF-8) raises :class:`CalibrationError`
+/// naming the file and key at fault.
 #[pyfunction]
 fn read_calibration<'py>(
     py: Python<'py>,
@@ -459,18 +473,18 @@ fn read_calibration<'py>(
             let path = crate::args::path(path)?;
             py.detach(|| calib_export::read_calibration(&path))
                 .map_err(|e| {
+                    // A file that cannot be read is the OSError open() would raise.
+                    if let ExportError::Read(ReadError::Io { path, source }) = &e
+                        && let Some(error) = crate::os_error(py, source, path)
+                    {
+                        return error;
+                    }
                     // A long path is not echoed whole.
                     let shown = path.to_string_lossy();
-                    let message = e.to_string();
-                    if shown.chars().count() > 200 {
-                        let short: String = shown.chars().take(60).collect();
-                        calibration_error(message.replace(
-                            shown.as_ref(),
-                            &format!("{short}... ({} characters)", shown.chars().count()),
-                        ))
-                    } else {
-                        calibration_error(message)
-                    }
+                    calibration_error(
+                        e.to_string()
+                            .replace(shown.as_ref(), &crate::shown_path(&shown)),
+                    )
                 })?
         }
     };

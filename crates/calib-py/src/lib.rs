@@ -5,7 +5,9 @@
 //! The bindings add no algorithm: each function converts its arguments, calls one function of
 //! `calib-single`, `calib-stereo`, `calib-rig`, `board-detect`, `camera-model` or `calib-export`
 //! with the GIL released, and converts the result. Errors of the Rust crates become `calib.CalibrationError`
-//! with the crates' messages; bad arguments become `TypeError` / `ValueError` naming the argument.
+//! with the crates' messages, except that a file that cannot be read or written raises the
+//! `OSError` subclass `open()` would ([`os_error`]); bad arguments become `TypeError` /
+//! `ValueError` naming the argument.
 //! Documentation: `docs/python.md`.
 
 #[macro_use]
@@ -29,12 +31,83 @@ create_exception!(
     calib,
     CalibrationError,
     PyException,
-    "A calibration (or detection, or file) failed; the message is the Rust crate's, naming the view and point at fault."
+    "A calibration (or detection, or a file's content) failed; the message is the Rust crate's, naming the view and point (or file and key) at fault. A file that cannot be opened raises OSError (FileNotFoundError, PermissionError, ...) instead, as open() does."
 );
 
 /// `calib.CalibrationError` with the message of a Rust error.
 pub(crate) fn calibration_error(e: impl std::fmt::Display) -> PyErr {
     CalibrationError::new_err(e.to_string())
+}
+
+/// A path for a message: cut to its first 60 characters when longer than 200 (a text passed
+/// where a path belongs is not echoed whole).
+pub(crate) fn shown_path(path: &str) -> String {
+    let n = path.chars().count();
+    if n > 200 {
+        let short: String = path.chars().take(60).collect();
+        format!("{short}... ({n} characters)")
+    } else {
+        path.to_string()
+    }
+}
+
+/// An I/O error on the file `path` as the `OSError` subclass Python's `open()` raises for it
+/// (`FileNotFoundError`, `PermissionError`, `IsADirectoryError`, `NotADirectoryError`, ...):
+/// built as `OSError(errno, strerror, filename)`, which picks the subclass from the errno and
+/// sets the attributes `errno`, `strerror` and `filename`, so that `str()` reads
+/// `[Errno 2] No such file or directory: 'PATH'`, as `open()`'s does. The errno is the
+/// operating system's where there is one; an error the crates make themselves (`calib` refusing
+/// to replace a folder or a read-only file) has the errno of its kind and the crate's wording.
+/// `None` for an error about the content (`InvalidData`: a file that is not UTF-8, say), which
+/// stays a `CalibrationError`.
+pub(crate) fn os_error(py: Python<'_>, error: &std::io::Error, path: &str) -> Option<PyErr> {
+    use std::io::ErrorKind as K;
+    let filename = shown_path(path);
+    let attempt = || -> PyResult<Option<PyErr>> {
+        let kind_errno = match error.kind() {
+            K::NotFound => Some("ENOENT"),
+            K::PermissionDenied => Some("EACCES"),
+            K::IsADirectory => Some("EISDIR"),
+            K::NotADirectory => Some("ENOTDIR"),
+            K::AlreadyExists => Some("EEXIST"),
+            _ => None,
+        };
+        // The raw code is an errno on Unix only (a Windows error code elsewhere).
+        let os_errno = if cfg!(unix) {
+            error.raw_os_error()
+        } else {
+            None
+        };
+        let (errno, strerror): (i64, String) = match (os_errno, kind_errno) {
+            (Some(errno), _) => (
+                errno.into(),
+                py.import("os")?
+                    .call_method1("strerror", (errno,))?
+                    .extract()?,
+            ),
+            (None, Some(name)) => {
+                let text = match error.get_ref() {
+                    // The crate's own wording ("that is a folder; give a file name").
+                    Some(inner) => inner.to_string(),
+                    None => error.to_string(),
+                };
+                (py.import("errno")?.getattr(name)?.extract()?, text)
+            }
+            (None, None) if error.raw_os_error().is_some() => {
+                return Ok(Some(pyo3::exceptions::PyOSError::new_err(format!(
+                    "{filename}: {error}"
+                ))));
+            }
+            (None, None) => return Ok(None),
+        };
+        let object = py.get_type::<pyo3::exceptions::PyOSError>().call1((
+            errno,
+            strerror,
+            filename.as_str(),
+        ))?;
+        Ok(Some(PyErr::from_value(object)))
+    };
+    attempt().unwrap_or_else(Some)
 }
 
 create_exception!(

@@ -5,7 +5,9 @@ stereo pairs (:func:`stereo_calibrate`), rigs of N cameras (:func:`calibrate_rig
 detection (:func:`detect_chessboard`), undistortion (:func:`undistort_points`), projection
 (:func:`project_points`), stereo rectification (:func:`stereo_rectify`) and the OpenCV, ROS and Kalibr files (:func:`write_calibration`, :func:`read_calibration`). The work
 is done by the project's Rust crates (the extension module ``calib._calib``) with the GIL
-released; failures raise :class:`CalibrationError` with the Rust message. See docs/python.md.
+released; failures raise :class:`CalibrationError` with the Rust message (a file that cannot be
+opened raises the ``OSError`` subclass ``open()`` raises, e.g. ``FileNotFoundError``). See
+docs/python.md.
 
     rms, K, dist, rvecs, tvecs = calib.calibrate_camera(object_points, image_points, (w, h))
 """

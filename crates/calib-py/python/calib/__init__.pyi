@@ -40,8 +40,10 @@ MODELS: dict[str, list[str]]
 """Every lens model and the names of its coefficients, in OpenCV's order."""
 
 class CalibrationError(Exception):
-    """A calibration (or detection, or file) failed; the message is the Rust crate's, naming the
-    view (pair, frame, camera) and point at fault."""
+    """A calibration (or detection, or a file's content) failed; the message is the Rust crate's,
+    naming the view (pair, frame, camera) and point (or file and key) at fault. A file that
+    cannot be opened raises OSError (FileNotFoundError, PermissionError, IsADirectoryError, ...)
+    instead, as open() does."""
 
 class CalibrationWarning(UserWarning):
     """Something in a result that deserves attention. The calibration functions emit one with
@@ -448,7 +450,9 @@ def detect_chessboard(
     raise_on_failure: bool = False,
 ) -> Optional[npt.NDArray[Any]]: ...
 def imread_gray(path: Union[str, PathLike[str]]) -> npt.NDArray[np.uint8]:
-    """A JPEG or PNG file as 8-bit grey (H, W), as the calib command reads it."""
+    """A JPEG or PNG file as 8-bit grey (H, W), as the calib command reads it. OSError
+    (FileNotFoundError, ...) as open() raises it when the file cannot be read;
+    CalibrationError when it is no JPEG or PNG, or corrupt."""
 
 def board_points(
     pattern_size: Sequence[int], square: float = 1.0, *, dtype: Optional[npt.DTypeLike] = None
@@ -525,9 +529,13 @@ def write_calibration(
 ) -> list[str]:
     """Writes a calibration as OpenCV FileStorage, ROS camera_info (a stereo rig: STEM-left.EXT
     and STEM-right.EXT; a rig: STEM-NAME.EXT per camera) or Kalibr camchain YAML, like
-    ``calib export``; returns the files written."""
+    ``calib export``; returns the files written. OSError (FileNotFoundError, PermissionError,
+    IsADirectoryError, ...) as open(path, "w") raises it when a file cannot be written;
+    CalibrationError when the format cannot hold the calibration."""
 
 def read_calibration(path: Union[str, PathLike[str]]) -> CalibrationDict:
     """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo / rig result JSON
     (the kind is recognized from the content), as a dict (see CalibrationDict). A str that
-    starts with '{' (a result's to_json()) or spans several lines is read as the text itself."""
+    starts with '{' (a result's to_json()) or spans several lines is read as the text itself.
+    OSError (FileNotFoundError, PermissionError, IsADirectoryError, ...) as open() raises it
+    when the file cannot be read; CalibrationError when its content is wrong."""
