@@ -48,8 +48,8 @@ pub(crate) fn camera(
 /// rotation vector, e.g. from rectification) the rays are rotated first, and with ``P`` (3x3 or
 /// 3x4; its left 3x3 part is used) they are projected again to pixels.
 ///
-/// ``points``: (N, 2), (N, 1, 2) or (1, N, 2), float32 or float64; the result has the same shape,
-/// float64. ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order; ``dist=None`` or
+/// ``points``: (N, 2), (N, 1, 2) or (1, N, 2), float32 or float64 (float16 is a ``TypeError``);
+/// the result has the same shape, float64. ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order; ``dist=None`` or
 /// empty: no distortion, as in cv2). ``model``: the lens model; ``None`` infers it from the
 /// number of coefficients (4 brown-conrady4, 5 brown-conrady5, 8 rational8, 12 thin-prism12); a
 /// fisheye camera needs ``model="kannala-brandt4"``. Pixels where the model cannot be inverted
@@ -123,7 +123,8 @@ fn undistort_points<'py>(
 /// ``R`` the rotation of ``rvec``, the pixel origin at the centre of the first pixel (OpenCV's
 /// convention).
 ///
-/// ``object_points``: (N, 3), (N, 1, 3) or (1, N, 3), float32 or float64. ``rvec``, ``tvec``: the
+/// ``object_points``: (N, 3), (N, 1, 3) or (1, N, 3), float32 or float64 (float16 is a
+/// ``TypeError``). ``rvec``, ``tvec``: the
 /// pose world -> camera, a Rodrigues rotation vector of 3 values (a 3x3 rotation matrix is
 /// accepted too) and a translation, as ``cv2.solvePnP`` and ``calibrate_camera`` return them.
 /// ``K``, ``dist``: the camera matrix and coefficients (OpenCV's order; ``dist=None`` or empty: no

@@ -81,8 +81,11 @@ pub fn type_name(obj: &Bound<'_, PyAny>) -> String {
         .unwrap_or_else(|_| "?".into())
 }
 
-/// A real-valued array as `float64` (float32 and integers are converted exactly; other dtypes are
-/// a `TypeError`).
+/// A real-valued array as `float64`: float32 and integers are converted exactly, longdouble
+/// (float128) is rounded to float64 (nothing a calibration can see is lost). float16 is a
+/// `TypeError`, as in cv2: its 11 significant bits round pixel coordinates above 2048 to whole
+/// pixels (above 1024 to half pixels), so points in it were rounded by a mistake before they
+/// got here. Other dtypes (bool, complex, object, ...) are a `TypeError` too.
 pub fn as_f64<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let array = as_array(obj, what)?;
     let kind = array.dtype().kind();
@@ -90,6 +93,11 @@ pub fn as_f64<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Bound<'py, P
         return Err(PyTypeError::new_err(format!(
             "{what}: expected a float32 or float64 array, got dtype {}",
             array.dtype()
+        )));
+    }
+    if kind == b'f' && array.dtype().itemsize() < 4 {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: float16 arrays are refused (cv2 refuses them too): their 11 significant bits round pixel coordinates above 2048 to whole pixels; pass float32 or float64, made from the values before they were rounded to float16"
         )));
     }
     let py = obj.py();

@@ -86,7 +86,9 @@ pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyR
 /// ``object_points``: one array per view of board points, shape (N, 3) or (N, 1, 3), Z = 0, in
 /// any length unit (the translations come out in it). ``image_points``: one array per view of
 /// pixels, shape (N, 2) or (N, 1, 2), same order, in OpenCV's pixel convention (the centre of the
-/// first pixel is (0, 0), x to the right, y down). float32 or float64 (integers are converted).
+/// first pixel is (0, 0), x to the right, y down). float32 or float64 (integers are converted,
+/// longdouble rounded to float64; float16, whose 11 significant bits round pixels above 2048 to
+/// whole pixels, is a ``TypeError``, as in cv2).
 /// ``image_size``: (width, height) in pixels.
 ///
 /// ``model``: "brown-conrady4" (k1 k2 p1 p2, the default), "brown-conrady5" (+k3, OpenCV's

@@ -206,3 +206,31 @@ def test_ints_beyond_64_bits_are_out_of_range_value_errors(left):
         name = next(iter(kw))
         with pytest.raises(ValueError, match=f"^{name}: .*out of range"):
             calib.calibrate_camera(obj, img, size, **kw)
+
+
+def test_float16_is_refused_and_longdouble_is_taken_as_float64(left):
+    """float16 keeps 11 significant bits, so pixel coordinates above 2048 are rounded to whole
+    pixels (and above 1024 to half pixels): corners in it are a mistake, which cv2 refuses too
+    (calibrateCamera wants Point2f / Point3f, projectPoints and undistortPoints CV_32F or
+    CV_64F). longdouble is converted to float64, losing nothing a calibration can see."""
+    obj, img, size = left
+    half = lambda views: [v.astype(np.float16) for v in views]
+    with pytest.raises(TypeError, match=r"^image_points\[0\]: float16 .*pass float32 or float64"):
+        calib.calibrate_camera(obj, half(img), size)
+    with pytest.raises(TypeError, match=r"^object_points\[0\]: float16 "):
+        calib.calibrate_camera(half(obj), img, size)
+    K = np.array([[500.0, 0, 320], [0, 500, 180], [0, 0, 1]])
+    with pytest.raises(TypeError, match=r"^points: float16 "):
+        calib.undistort_points(img[0].astype(np.float16), K)
+    with pytest.raises(TypeError, match=r"^object_points: float16 "):
+        calib.project_points(obj[0].astype(np.float16), np.zeros(3), [0, 0, 500], K)
+    with pytest.raises(TypeError, match=r"^K: float16 "):
+        calib.undistort_points(img[0], K.astype(np.float16))
+    with pytest.raises(TypeError, match=r"^image_points1\[0\]: float16 "):
+        calib.stereo_calibrate(obj, half(img), img, size)
+    long = lambda views: [v.astype(np.longdouble) for v in views]
+    a = calib.calibrate_camera(obj, img, size)
+    b = calib.calibrate_camera(long(obj), long(img), size, K=None)
+    assert b.rms == a.rms and np.array_equal(b.K, a.K) and np.array_equal(b.dist, a.dist)
+    assert np.array_equal(calib.undistort_points(img[0].astype(np.longdouble), K),
+                          calib.undistort_points(img[0], K))

@@ -28,7 +28,9 @@ FixName = str
 coefficient of the model ("k1", "k2", "p1", "p2", "k3", ... as in ``MODELS``)."""
 
 Points = npt.ArrayLike
-"""An (N, 2) / (N, 3) array of float32 or float64, or cv2's (N, 1, 2) / (N, 1, 3)."""
+"""An (N, 2) / (N, 3) array of float32 or float64, or cv2's (N, 1, 2) / (N, 1, 3). Integers
+are converted and longdouble is rounded to float64; float16 (11 significant bits: pixels above
+2048 rounded to whole pixels) raises TypeError, as in cv2."""
 
 ImageSize = Sequence[int]
 """(width, height) in pixels."""
