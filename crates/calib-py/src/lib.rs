@@ -5,7 +5,8 @@
 //! The bindings add no algorithm: each function converts its arguments, calls one function of
 //! `calib-single`, `calib-stereo`, `calib-rig`, `board-detect`, `camera-model` or `calib-export`
 //! with the GIL released, and converts the result. Errors of the Rust crates become `calib.CalibrationError`
-//! with the crates' messages, except that a file that cannot be read or written raises the
+//! with the crates' messages (their command-line hints in Python's words, [`python_wording`]),
+//! except that a file that cannot be read or written raises the
 //! `OSError` subclass `open()` would ([`os_error`]); bad arguments become `TypeError` /
 //! `ValueError` naming the argument.
 //! Documentation: `docs/python.md`.
@@ -31,12 +32,99 @@ create_exception!(
     calib,
     CalibrationError,
     PyException,
-    "A calibration (or detection, or a file's content) failed; the message is the Rust crate's, naming the view and point (or file and key) at fault. A file that cannot be opened raises OSError (FileNotFoundError, PermissionError, ...) instead, as open() does."
+    "A calibration (or detection, or a file's content) failed; the message is the Rust crate's (its command-line hints in Python's words, e.g. model='rational8' for --model rational8), naming the view and point (or file and key) at fault. A file that cannot be opened raises OSError (FileNotFoundError, PermissionError, ...) instead, as open() does."
 );
 
-/// `calib.CalibrationError` with the message of a Rust error.
+/// `calib.CalibrationError` with the message of a Rust error, in Python's words
+/// ([`python_wording`]).
 pub(crate) fn calibration_error(e: impl std::fmt::Display) -> PyErr {
-    CalibrationError::new_err(e.to_string())
+    CalibrationError::new_err(python_wording(&e.to_string()))
+}
+
+/// Hints of the crates' messages written for the `calib` command, and what they are from
+/// Python. Those written for both front ends (`--skip-bad-views; Python: skip_bad_views=True`)
+/// are left as they are.
+const CLI_HINTS: [(&str, &str); 3] = [
+    // calib-export's advice when a lens model cannot be rectified.
+    ("calib single --compare-models", "calib.compare_models"),
+    // calib-export's advice when two cameras cannot share rectified images: the package has no
+    // image undistortion, but points undistort without `R`, and the command is still there.
+    (
+        "(undistort each camera alone: calib undistort)",
+        "(undistort each camera alone: undistort_points without R, or images with the command `calib undistort`)",
+    ),
+    // calib-core's `ReadError::TooLarge`: the package has no such option (read_calibration is
+    // the only reader of files that reaches it).
+    (
+        "; raise the limit (--max-input-mb) if it really is an input file",
+        ", the most the Python package reads from a calibration file",
+    ),
+];
+
+/// A crate's message with its command-line hints in Python's words: `--model NAME` (and
+/// `--model A or B`) becomes `model='NAME'` (`model='A' or model='B'`), and the hints of
+/// [`CLI_HINTS`] their Python equivalents; a hint followed by `; Python: ...` already names
+/// both and is kept. The `calib` command's own messages are unchanged (they are the crates').
+pub(crate) fn python_wording(message: &str) -> String {
+    const PYTHON_TOO: &str = "; Python: ";
+    let mut text = message.to_string();
+    for (cli, python) in CLI_HINTS {
+        let mut out = String::with_capacity(text.len());
+        let mut rest = text.as_str();
+        while let Some(at) = rest.find(cli) {
+            let after = &rest[at + cli.len()..];
+            out.push_str(&rest[..at]);
+            out.push_str(if after.starts_with(PYTHON_TOO) {
+                cli
+            } else {
+                python
+            });
+            rest = after;
+        }
+        out.push_str(rest);
+        text = out;
+    }
+    model_flags(&text)
+}
+
+/// `--model A` and `--model A or B` (known model names) as `model='A'` and
+/// `model='A' or model='B'`, unless a `; Python: ` hint follows.
+fn model_flags(message: &str) -> String {
+    const FLAG: &str = "--model ";
+    let name_end = |s: &str| {
+        s.find(|c: char| !(c.is_ascii_alphanumeric() || c == '-' || c == '_'))
+            .unwrap_or(s.len())
+    };
+    let is_model = |s: &str| !s.is_empty() && s.parse::<camera_model::CameraModel>().is_ok();
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(at) = rest.find(FLAG) {
+        out.push_str(&rest[..at]);
+        let mut after = &rest[at + FLAG.len()..];
+        let mut names = Vec::new();
+        loop {
+            let end = name_end(after);
+            if !is_model(&after[..end]) {
+                break;
+            }
+            names.push(&after[..end]);
+            after = &after[end..];
+            match after.strip_prefix(" or ") {
+                Some(next) if is_model(&next[..name_end(next)]) => after = next,
+                _ => break,
+            }
+        }
+        if names.is_empty() || after.starts_with("; Python: ") {
+            // Not a model name, or a hint for both front ends: as it was.
+            out.push_str(&rest[at..rest.len() - after.len()]);
+        } else {
+            let python: Vec<String> = names.iter().map(|n| format!("model='{n}'")).collect();
+            out.push_str(&python.join(" or "));
+        }
+        rest = after;
+    }
+    out.push_str(rest);
+    out
 }
 
 /// A path for a message: cut to its first 60 characters when longer than 200 (a text passed

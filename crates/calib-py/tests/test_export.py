@@ -333,3 +333,28 @@ def test_float32_rotation_matrices_are_rotations(stereo, tmp_path):
     # Still refused: a matrix that is not a rotation to 1e-6.
     with pytest.raises(ValueError, match="^R: not a rotation matrix"):
         calib.stereo_rectify(K1, D1, K2, D2, size, R * (1 + 1e-5), T)
+
+
+def test_messages_name_python_arguments_not_command_line_flags(tmp_path):
+    """The crates' hints are written for the `calib` command (`--model rational8`, `calib single
+    --compare-models`); from Python they name the keyword argument and the function instead."""
+    K = np.array([[500.0, 0, 320], [0, 500, 180], [0, 0, 1]])
+    single = {"K": K, "dist": [0.1, 0.01, 0, 0, 0.001], "image_size": (640, 360)}
+    cases = [
+        (lambda: calib.write_calibration(tmp_path / "k.yaml", single, "kalibr"),
+         "with k3 = 0.001 (Kalibr's radtan has k1 k2 r1 r2 only; calibrate with model='brown-conrady4')"),
+        (lambda: calib.write_calibration(tmp_path / "k.yaml", dict(single, dist=np.zeros(8)), "kalibr"),
+         "calibrate with model='brown-conrady4' or model='kannala-brandt4')"),
+        (lambda: calib.write_calibration(tmp_path / "r.yaml", dict(single, dist=np.zeros(12)), "ros"),
+         "calibrate with model='rational8' for ROS)"),
+        (lambda: calib.stereo_rectify(K, [-1.0, 0, 0, 0], K, None, (640, 360), np.eye(3), [-60, 0, 0]),
+         "recalibrate this camera with a model valid over the image, e.g. as calib.compare_models recommends)"),
+        (lambda: calib.stereo_rectify(K, None, K, None, (640, 360), [0, 1.6, 0], [-60, 0, 0]),
+         "(undistort each camera alone: undistort_points without R, or images with the command `calib undistort`)"),
+    ]
+    for call, python in cases:
+        with pytest.raises(calib.CalibrationError) as e:
+            call()
+        message = str(e.value)
+        assert message.endswith(python), message
+        assert "--" not in message and "calib single" not in message, message

@@ -42,7 +42,8 @@ MODELS: dict[str, list[str]]
 """Every lens model and the names of its coefficients, in OpenCV's order."""
 
 class CalibrationError(Exception):
-    """A calibration (or detection, or a file's content) failed; the message is the Rust crate's,
+    """A calibration (or detection, or a file's content) failed; the message is the Rust crate's
+    (its command-line hints in Python's words: model='rational8' for --model rational8),
     naming the view (pair, frame, camera) and point (or file and key) at fault. A file that
     cannot be opened raises OSError (FileNotFoundError, PermissionError, IsADirectoryError, ...)
     instead, as open() does."""
