@@ -6,8 +6,8 @@ use crate::run::check_not_input;
 use crate::{Failure, Say, print_stdout, write_json};
 use calib_export::remap::{read_image, write_image};
 use calib_export::{
-    Calibrated, CameraCalibration, ExportOptions, Format, PixelMap, export, export_paths,
-    export_texts, optimal_new_camera_matrix, read_calibration, remap_image, stereo_rectify,
+    Calibrated, CameraCalibration, ExportOptions, Format, PixelMap, export_paths,
+    optimal_new_camera_matrix, read_calibration, remap_image, render_export, stereo_rectify,
 };
 use calib_single::CalibrationOptions;
 use camera_model::{AnyCamera, CameraModel};
@@ -54,37 +54,54 @@ pub fn export_targets(values: &[String]) -> Result<Vec<ExportTarget>, Failure> {
         .collect()
 }
 
-/// The files of the exports of `calibrated` (default options), rendered but not written:
-/// `(path, text, format)`, refusing any that would replace an input. Rendering first lets a
-/// command fail (a model the format cannot hold, a rectification that does not converge) before
-/// it replaces any previous file.
+/// Exports rendered but not written ([`render_exports`]).
+#[derive(Debug, Default)]
+pub struct RenderedExports {
+    /// `(path, text, format)` of every file.
+    pub files: Vec<(PathBuf, String, Format)>,
+    /// What the files leave out (an OpenCV stereo file without its rectification), as warnings
+    /// for standard error, each naming its `--export`.
+    pub warnings: Vec<String>,
+}
+
+/// Prints export warnings on standard error (whatever `-q` says, like the calibration's).
+pub fn warn(warnings: &[String]) {
+    use std::io::Write;
+    let mut err = std::io::stderr().lock();
+    for w in warnings {
+        let _ = writeln!(err, "calib: warning: {w}");
+    }
+}
+
+/// The files of the exports of `calibrated` (default options), rendered but not written,
+/// refusing any that would replace an input. Rendering first lets a command fail (a model the
+/// format cannot hold, a ROS stereo pair that cannot be rectified) before it replaces any
+/// previous file.
 pub fn render_exports(
     calibrated: &Calibrated,
     targets: &[ExportTarget],
     inputs: &[&str],
-) -> Result<Vec<(PathBuf, String, Format)>, Failure> {
-    let mut files = Vec::new();
+) -> Result<RenderedExports, Failure> {
+    let mut rendered = RenderedExports::default();
     for target in targets {
         let paths = export_paths(calibrated, target.format, &target.path);
         for path in &paths {
             check_not_input(&path.to_string_lossy(), inputs)?;
         }
-        let texts =
-            export_texts(calibrated, target.format, &ExportOptions::default()).map_err(|e| {
-                Failure(format!(
-                    "--export {}={}: {e}",
-                    target.format,
-                    target.path.display()
-                ))
-            })?;
-        files.extend(
+        let name = format!("--export {}={}", target.format, target.path.display());
+        let export = render_export(calibrated, target.format, &ExportOptions::default())
+            .map_err(|e| Failure(format!("{name}: {e}")))?;
+        rendered.files.extend(
             paths
                 .into_iter()
-                .zip(texts)
+                .zip(export.texts)
                 .map(|(path, text)| (path, text, target.format)),
         );
+        rendered
+            .warnings
+            .extend(export.omissions.into_iter().map(|o| format!("{name}: {o}")));
     }
-    Ok(files)
+    Ok(rendered)
 }
 
 /// Refuses, before calibrating, an `--export` whose format cannot hold one of `models` (the
@@ -109,8 +126,9 @@ pub fn check_export_models(
 
 /// Writes rendered exports ([`render_exports`]) as a group
 /// ([`calib_core::io::write_group_atomically`]: a failure leaves every previous file as it was);
-/// prints the files written unless quiet.
-pub fn write_rendered(files: &[(PathBuf, String, Format)], say: Say) -> Result<(), Failure> {
+/// prints the files written unless quiet, and what they leave out on standard error.
+pub fn write_rendered(rendered: &RenderedExports, say: Say) -> Result<(), Failure> {
+    let files = &rendered.files;
     let group: Vec<(PathBuf, &[u8])> = files
         .iter()
         .map(|(path, text, _)| (path.clone(), text.as_bytes()))
@@ -125,6 +143,7 @@ pub fn write_rendered(files: &[(PathBuf, String, Format)], say: Say) -> Result<(
     for (path, _, format) in files {
         say.text(&format!("wrote {} ({format})\n", path.display()))?;
     }
+    warn(&rendered.warnings);
     Ok(())
 }
 
@@ -368,26 +387,42 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
         args.pair.as_deref(),
         &args.input,
     )?;
+    let rendered = render_export(&calibrated, format, &options)
+        .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+    let warnings: Vec<String> = rendered
+        .omissions
+        .iter()
+        .map(|o| format!("{}: {o}", args.output.display()))
+        .collect();
     if args.output.as_os_str() == "-" {
         // Standard output: one file's text only (a ROS stereo pair or rig is several files).
-        let texts = export_texts(&calibrated, format, &options)
-            .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
-        let [text] = texts.as_slice() else {
+        let [text] = rendered.texts.as_slice() else {
             return Err(Failure(format!(
                 "-o -: the {format} export of {} is {} files; give a file name (each camera gets a file named from it)",
                 args.input,
-                texts.len()
+                rendered.texts.len()
             )));
         };
-        return print_stdout(text);
+        print_stdout(text)?;
+        warn(&warnings);
+        return Ok(());
     }
-    for path in export_paths(&calibrated, format, &args.output) {
+    let paths = export_paths(&calibrated, format, &args.output);
+    for path in &paths {
         check_not_input(&path.to_string_lossy(), &[&args.input])?;
     }
-    let written = export(&calibrated, format, &args.output, &options)
-        .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
+    for (path, text) in paths.iter().zip(&rendered.texts) {
+        calib_core::write_atomically(path, text.as_bytes()).map_err(|e| {
+            Failure(format!(
+                "{}: cannot write {}: {e}",
+                args.input,
+                path.display()
+            ))
+        })?;
+    }
+    warn(&warnings);
     if !args.quiet {
-        for path in written {
+        for path in paths {
             print_stdout(&format!("wrote {} ({format})\n", path.display()))?;
         }
     }

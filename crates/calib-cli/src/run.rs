@@ -233,7 +233,7 @@ pub fn calibrate_and_report<R: Report>(
     // Every export is rendered before anything is written: a failing one leaves all files as
     // they were.
     let exports = if targets.is_empty() {
-        Vec::new()
+        crate::after::RenderedExports::default()
     } else {
         crate::after::render_exports(&result.calibrated(), &targets, inputs)?
     };

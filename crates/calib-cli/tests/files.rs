@@ -225,3 +225,119 @@ fn an_output_folder_that_is_a_file_is_named() {
     );
     assert!(!out.exists());
 }
+
+/// A stereo result whose lens model folds inside the image (sourishg2 with thin-prism12 or
+/// rational8: the model-invalid warning) cannot be rectified, but its calibration is valid:
+/// the OpenCV file holds M1 ... F without R1 ... Q, with a comment saying why and a warning on
+/// stderr (before, the export failed, and `calib stereo --export` with it wrote nothing). ROS
+/// camera_info of a stereo pair is its rectification: refused, naming the OpenCV export.
+#[test]
+fn a_stereo_rig_that_cannot_be_rectified_is_exported_without_rectification() {
+    let dir = scratch("unrectifiable");
+    let obs = data("sourishg2/stereo.json");
+    let (result, yaml) = (dir.join("tp.json"), dir.join("tp.yaml"));
+    let run = calib()
+        .args(["stereo", &obs, "--model", "thin-prism12", "-q", "-o"])
+        .arg(&result)
+        .arg("--export")
+        .arg(format!("opencv={}", yaml.display()))
+        .output()
+        .unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(run.status.success(), "{err}");
+    assert!(err.contains("warning [model-invalid]"), "{err}");
+    assert!(
+        err.contains("calib: warning: --export opencv=")
+            && err.contains("written without the rectification (R1, R2, P1, P2, Q)"),
+        "{err}"
+    );
+    assert!(result.exists());
+    let check = |text: &str| {
+        for key in ["M1", "D1", "M2", "D2", "R", "T", "E", "F"] {
+            assert!(
+                text.contains(&format!("\n{key}: !!opencv-matrix\n")),
+                "{key}"
+            );
+        }
+        for key in ["R1", "R2", "P1", "P2", "Q"] {
+            assert!(!text.contains(&format!("\n{key}: ")), "{key}: {text}");
+        }
+        let comment: Vec<&str> = text.lines().filter_map(|l| l.strip_prefix("# ")).collect();
+        let comment = comment.join(" ");
+        assert!(
+            comment.starts_with(
+                "R1, R2, P1, P2, Q (the rectification) are left out: they cannot be computed"
+            ) && comment.contains("lens model that is valid over the whole image")
+                && comment.contains("--alpha"),
+            "{text}"
+        );
+        // Comment lines wrapped for people reading the file.
+        assert!(
+            text.lines()
+                .filter(|l| l.starts_with('#'))
+                .all(|l| l.len() <= 110),
+            "{text}"
+        );
+    };
+    check(&std::fs::read_to_string(&yaml).unwrap());
+
+    // calib export: the same file, the warning naming it.
+    let again = dir.join("again.yaml");
+    let run = calib()
+        .arg("export")
+        .arg(&result)
+        .args(["--format", "opencv", "-o"])
+        .arg(&again)
+        .output()
+        .unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert!(run.status.success(), "{err}");
+    assert!(
+        err.starts_with(&format!(
+            "calib: warning: {}: written without",
+            again.display()
+        )),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&again).unwrap(),
+        std::fs::read_to_string(&yaml).unwrap()
+    );
+    // An exported file exported again (to standard output): the same, the warning on stderr.
+    let run = calib()
+        .arg("export")
+        .arg(&again)
+        .args(["--format", "opencv", "-q", "-o", "-"])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    assert!(
+        String::from_utf8(run.stderr)
+            .unwrap()
+            .contains("written without")
+    );
+    check(&String::from_utf8(run.stdout).unwrap());
+
+    // ROS: refused, nothing written.
+    let r8 = dir.join("r8.json");
+    let run = calib()
+        .args(["stereo", &obs, "--model", "rational8", "-q", "-o"])
+        .arg(&r8)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let ros = dir.join("ros.yaml");
+    let err = fails(
+        calib()
+            .arg("export")
+            .arg(&r8)
+            .args(["--format", "ros", "-o"])
+            .arg(&ros),
+    );
+    assert!(
+        err.contains("ROS camera_info files of a stereo pair need its rectification")
+            && err.contains("--format opencv writes this calibration without the rectification"),
+        "{err}"
+    );
+    assert!(!dir.join("ros-left.yaml").exists() && !dir.join("ros-right.yaml").exists());
+}

@@ -177,17 +177,43 @@ pub fn check_format_takes_model(
     }
 }
 
-/// The texts of an export, one per file of [`export_paths`].
+/// An export rendered but not yet written ([`render_export`]).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct RenderedExport {
+    /// The texts, one per file of [`export_paths`].
+    pub texts: Vec<String>,
+    /// What the files leave out and why, for the caller to warn about: an OpenCV stereo file
+    /// without its rectification (`R1 ... Q`), which cannot be computed for this rig (the
+    /// files say so in a comment too). Empty for a complete export.
+    pub omissions: Vec<String>,
+}
+
+/// The texts of an export and what they leave out ([`RenderedExport`]).
+pub fn render_export(
+    calibration: &Calibrated,
+    format: Format,
+    options: &ExportOptions,
+) -> Result<RenderedExport, ExportError> {
+    let (texts, omissions) = match format {
+        Format::OpenCv => {
+            let (text, note) = opencv::write_noting(calibration, options)?;
+            (vec![text], note.into_iter().collect())
+        }
+        Format::Ros => (ros::write(calibration, options)?, Vec::new()),
+        Format::Kalibr => (vec![kalibr::write(calibration, options)?], Vec::new()),
+    };
+    Ok(RenderedExport { texts, omissions })
+}
+
+/// The texts of an export, one per file of [`export_paths`] ([`render_export`] without what
+/// they leave out).
 pub fn export_texts(
     calibration: &Calibrated,
     format: Format,
     options: &ExportOptions,
 ) -> Result<Vec<String>, ExportError> {
-    match format {
-        Format::OpenCv => Ok(vec![opencv::write(calibration, options)?]),
-        Format::Ros => ros::write(calibration, options),
-        Format::Kalibr => Ok(vec![kalibr::write(calibration, options)?]),
-    }
+    render_export(calibration, format, options).map(|r| r.texts)
 }
 
 /// Writes `calibration` in `format` to `path` (see [`export_paths`]), each file atomically: a

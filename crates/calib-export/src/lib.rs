@@ -61,8 +61,8 @@ pub use calibration::{Calibrated, CameraCalibration, CameraRig, StereoRig};
 pub use camera_model;
 pub use error::ExportError;
 pub use files::{
-    ExportOptions, Format, check_format_takes_model, export, export_paths, export_texts,
-    parse_calibration, read_calibration,
+    ExportOptions, Format, RenderedExport, check_format_takes_model, export, export_paths,
+    export_texts, parse_calibration, read_calibration, render_export,
 };
 pub use rectify::{Rectification, stereo_rectify};
 pub use remap::{PixelMap, remap_image};

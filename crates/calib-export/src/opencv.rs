@@ -30,7 +30,11 @@
 //! `T`) plus `E`, `F` and the rectification `R1`, `R2`, `P1`, `P2`, `Q`
 //! ([`crate::rectify::stereo_rectify`] with the export's `alpha`), and `distortion_model_1`,
 //! `distortion_model_2`. Cameras of different image sizes add `image_width_2`,
-//! `image_height_2` and leave out the rectification (OpenCV's `stereoRectify` takes one size).
+//! `image_height_2` and leave out the rectification (OpenCV's `stereoRectify` takes one size);
+//! so does a rig whose rectification cannot be computed (a lens model that folds inside the
+//! image, cameras turned too far apart for the export's `alpha`): `M1 ... F` are the whole
+//! calibration, and a YAML comment where `R1 ... Q` would be says why they are missing and how
+//! to get them ([`write_noting`] returns that reason too, for the caller to warn).
 //!
 //! A rig of N cameras (OpenCV has no layout of its own for it) is one map per camera,
 //! `camera_0 ... camera_{N-1}`, each with the single camera's keys, its `name`, and `R`, `T`:
@@ -59,7 +63,7 @@
 
 use crate::calibration::{CameraCalibration, CameraRig, StereoRig, intrinsics_of};
 use crate::error::ExportError;
-use crate::rectify::stereo_rectify;
+use crate::rectify::{Rectification, stereo_rectify};
 use crate::yaml::{self, Doc};
 use crate::{Calibrated, ExportOptions};
 use calib_core::ImageSize;
@@ -112,9 +116,58 @@ fn row_major<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -
         .collect()
 }
 
-/// The OpenCV YAML text of `calibration`.
+/// The OpenCV YAML text of `calibration` ([`write_noting`] without the note).
 pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String, ExportError> {
+    write_noting(calibration, options).map(|(text, _)| text)
+}
+
+/// The rectification of a stereo rig for an OpenCV file, or why the file goes without it: the
+/// two image sizes differ (`stereoRectify` takes one), or the rectification fails (a lens model
+/// that is not one-to-one out to the image corners, cameras turned too far apart for `alpha`).
+/// The calibration itself (`M1 ... F`) is valid either way, so it is written without `R1 ... Q`.
+fn rectification_or_reason(s: &StereoRig, alpha: Option<f64>) -> Result<Rectification, String> {
+    if s.right.image_size != s.left.image_size {
+        return Err(format!(
+            "the two cameras have different image sizes ({}x{} and {}x{}) and OpenCV's stereoRectify takes one size",
+            s.left.image_size.width,
+            s.left.image_size.height,
+            s.right.image_size.width,
+            s.right.image_size.height
+        ));
+    }
+    stereo_rectify(s, alpha).map_err(|e| {
+        format!(
+            "they cannot be computed for this calibration ({e}); to get them, recalibrate with a lens model that is valid over the whole image (fewer terms, e.g. calib stereo --model brown-conrady5) or, where that says so, export again with another --alpha"
+        )
+    })
+}
+
+/// Appends `text` as YAML comment lines (`# ...`, at most about 100 characters each).
+fn comment(out: &mut String, text: &str) {
+    let mut line = String::from("#");
+    for word in text.split_whitespace() {
+        if line.len() > 1 && line.len() + 1 + word.len() > 100 {
+            let _ = writeln!(out, "{line}");
+            line = String::from("#");
+        }
+        line.push(' ');
+        line.push_str(word);
+    }
+    let _ = writeln!(out, "{line}");
+}
+
+/// The OpenCV YAML text of `calibration`, and for a stereo rig written without its
+/// rectification (`R1 ... Q`), the reason (also written in the file as a comment).
+pub fn write_noting(
+    calibration: &Calibrated,
+    options: &ExportOptions,
+) -> Result<(String, Option<String>), ExportError> {
     calibration.check()?;
+    if let Some(a) = options.alpha {
+        // A bad alpha is the caller's mistake, not a rig that cannot be rectified.
+        crate::undistort::check_alpha(a)?;
+    }
+    let mut note = None;
     let mut out = String::from(HEADER);
     match calibration {
         Calibrated::Single(c) => {
@@ -127,12 +180,9 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
         }
         Calibrated::Stereo(s) => {
             // OpenCV rectifies two images of one size (stereoRectify takes one imageSize): for
-            // cameras of different sizes the file holds the calibration without R1..Q.
-            let rect = if s.right.image_size == s.left.image_size {
-                Some(stereo_rectify(s, options.alpha)?)
-            } else {
-                None
-            };
+            // cameras of different sizes, or a rig that cannot be rectified, the file holds the
+            // calibration without R1..Q, and a comment that says why.
+            let rect = rectification_or_reason(s, options.alpha);
             let scale = options.translation_scale;
             let scaled = scaled_rig(s, scale);
             let _ = writeln!(out, "image_width: {}", s.left.image_size.width);
@@ -153,18 +203,31 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             matrix(&mut out, "T", 3, 1, scaled.translation.as_slice())?;
             matrix(&mut out, "E", 3, 3, &row_major(&scaled.essential()))?;
             matrix(&mut out, "F", 3, 3, &row_major(&s.fundamental()))?;
-            if let Some(rect) = rect {
-                let mut p2 = rect.p2;
-                p2[(0, 3)] *= scale;
-                p2[(1, 3)] *= scale;
-                let mut q = rect.q;
-                q[(3, 2)] /= scale;
-                q[(3, 3)] /= scale;
-                matrix(&mut out, "R1", 3, 3, &row_major(&rect.r1))?;
-                matrix(&mut out, "R2", 3, 3, &row_major(&rect.r2))?;
-                matrix(&mut out, "P1", 3, 4, &row_major(&rect.p1))?;
-                matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
-                matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
+            match rect {
+                Ok(rect) => {
+                    let mut p2 = rect.p2;
+                    p2[(0, 3)] *= scale;
+                    p2[(1, 3)] *= scale;
+                    let mut q = rect.q;
+                    q[(3, 2)] /= scale;
+                    q[(3, 3)] /= scale;
+                    matrix(&mut out, "R1", 3, 3, &row_major(&rect.r1))?;
+                    matrix(&mut out, "R2", 3, 3, &row_major(&rect.r2))?;
+                    matrix(&mut out, "P1", 3, 4, &row_major(&rect.p1))?;
+                    matrix(&mut out, "P2", 3, 4, &row_major(&p2))?;
+                    matrix(&mut out, "Q", 4, 4, &row_major(&q))?;
+                }
+                Err(reason) => {
+                    comment(
+                        &mut out,
+                        &format!(
+                            "R1, R2, P1, P2, Q (the rectification) are left out: {reason}. M1, D1, M2, D2, R, T, E, F above are the whole calibration."
+                        ),
+                    );
+                    note = Some(format!(
+                        "written without the rectification (R1, R2, P1, P2, Q): {reason}"
+                    ));
+                }
             }
         }
         Calibrated::Rig(r) => {
@@ -193,7 +256,7 @@ pub fn write(calibration: &Calibrated, options: &ExportOptions) -> Result<String
             }
         }
     }
-    Ok(out)
+    Ok((out, note))
 }
 
 /// The rig with its translation multiplied by `scale` (unit conversion for other tools).

@@ -35,7 +35,11 @@
 //! the new camera matrix of [`crate::undistort::optimal_new_camera_matrix`] (the export's
 //! `alpha`, 0 by default, as ROS's calibrator does). A stereo rig gets `R1`/`P1` and `R2`/`P2`
 //! of [`crate::rectify::stereo_rectify`]; `P2[0][3] = f' T'x` is in board units times the
-//! export's translation scale (ROS expects metres). Reading a `plumb_bob` file whose `k3` is
+//! export's translation scale (ROS expects metres). A stereo rig that cannot be rectified
+//! (cameras of different image sizes, a lens model that folds inside the image) is refused:
+//! ROS's stereo pipeline takes camera_info as a rectified pair, so a stand-in (identity
+//! rectification) would give wrong depth silently; the OpenCV export writes such a rig without
+//! its rectification. Reading a `plumb_bob` file whose `k3` is
 //! exactly zero gives a `brown-conrady4` camera.
 
 use crate::calibration::{CameraCalibration, intrinsics_of};
@@ -172,7 +176,15 @@ pub fn write(
             })
             .collect(),
         Calibrated::Stereo(s) => {
-            let rect = stereo_rectify(s, options.alpha)?;
+            // camera_info of a stereo pair is its rectification: stereo_image_proc matches
+            // rows of the images rectified with R and P. Identity R and P = [K | 0] would be
+            // read as a rectified pair and give wrong depth without a word, so a rig that
+            // cannot be rectified is refused, naming the OpenCV file that holds it without.
+            let rect = stereo_rectify(s, options.alpha).map_err(|e| {
+                ExportError::Unsupported(format!(
+                    "ROS camera_info files of a stereo pair need its rectification (rectification_matrix, projection_matrix), which cannot be computed: {e}; nothing was written (--format opencv writes this calibration without the rectification)"
+                ))
+            })?;
             let mut p2 = rect.p2;
             p2[(0, 3)] *= options.translation_scale;
             p2[(1, 3)] *= options.translation_scale;

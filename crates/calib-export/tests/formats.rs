@@ -192,6 +192,14 @@ fn opencv_stereo_file_has_the_rectification_and_epipolar_matrices() {
     assert!(constraint.abs() < 1e-12 * e.norm(), "{constraint}");
 }
 
+/// The YAML comment lines of `text`, joined into one line.
+fn comment(text: &str) -> String {
+    text.lines()
+        .filter_map(|l| l.strip_prefix("# "))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Cameras of different image sizes (a rig pair, `--right-image`): the OpenCV file holds both
 /// sizes and the calibration, without the rectification (OpenCV rectifies one size), and reads
 /// back; before, the export was refused.
@@ -215,6 +223,10 @@ fn opencv_stereo_file_of_two_image_sizes_has_both_sizes_and_no_rectification() {
     for key in ["R1", "R2", "P1", "P2", "Q"] {
         assert!(!text.contains(&format!("\n{key}: ")), "{key}");
     }
+    assert!(
+        comment(text).starts_with("R1, R2, P1, P2, Q (the rectification) are left out: the two cameras have different image sizes (640x360 and 800x600)"),
+        "{text}"
+    );
     match read_back(Format::OpenCv, &original, &texts) {
         Calibrated::Stereo(back) => {
             same_camera(&back.left, &r.left, "left");
@@ -676,4 +688,57 @@ fn kalibr_camera_names_travel_in_the_topics() {
         (back.left.name.as_str(), back.right.name.as_str()),
         ("cam0", "cam1")
     );
+}
+
+/// A rig whose lens folds inside the image (k1 = -2: r (1 + k1 r^2) turns back at r = 0.41,
+/// the image corners are at 0.79) cannot be rectified; its calibration is valid: the OpenCV
+/// file holds M1 ... F, a comment instead of R1 ... Q, reads back exactly, and the export names
+/// the omission. ROS camera_info, which is the rectification, is refused.
+#[test]
+fn a_rig_that_cannot_be_rectified_is_written_without_rectification_for_opencv_only() {
+    let mut r = rig(CameraModel::BrownConrady4, CameraModel::BrownConrady4);
+    r.left.camera.distortion = vec![-2.0, 0.5, 0.0, 0.0];
+    assert!(calib_export::stereo_rectify(&r, Some(0.0)).is_err());
+    let original = Calibrated::Stereo(r.clone());
+    let rendered =
+        calib_export::render_export(&original, Format::OpenCv, &ExportOptions::default()).unwrap();
+    let text = &rendered.texts[0];
+    for key in ["R1", "R2", "P1", "P2", "Q"] {
+        assert!(!text.contains(&format!("\n{key}: ")), "{key}");
+    }
+    assert!(
+        comment(text).starts_with("R1, R2, P1, P2, Q (the rectification) are left out: they cannot be computed for this calibration (rectifying camera 'left'"),
+        "{text}"
+    );
+    assert_eq!(rendered.omissions.len(), 1);
+    assert!(
+        rendered.omissions[0].starts_with("written without the rectification"),
+        "{:?}",
+        rendered.omissions
+    );
+    match read_back(Format::OpenCv, &original, &rendered.texts) {
+        Calibrated::Stereo(back) => {
+            same_camera(&back.left, &r.left, "left");
+            same_camera(&back.right, &r.right, "right");
+            assert_eq!(back.rotation, r.rotation);
+        }
+        other => panic!("{other:?}"),
+    }
+    // A bad alpha stays an error, not an omission.
+    let mut options = ExportOptions::default();
+    options.alpha = Some(2.0);
+    assert!(export_texts(&original, Format::OpenCv, &options).is_err());
+    let err = export_texts(&original, Format::Ros, &ExportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("ROS camera_info files of a stereo pair need its rectification")
+            && err.contains("--format opencv"),
+        "{err}"
+    );
+    // A rig that rectifies has no omission.
+    let good = Calibrated::Stereo(rig(CameraModel::BrownConrady4, CameraModel::BrownConrady4));
+    let rendered =
+        calib_export::render_export(&good, Format::OpenCv, &ExportOptions::default()).unwrap();
+    assert!(rendered.omissions.is_empty() && rendered.texts[0].contains("\nQ: "));
 }
