@@ -640,7 +640,8 @@ pub struct RectifyArgs {
         value_name = "A"
     )]
     pub alpha: f64,
-    /// Write R1, R2, P1, P2, Q (and the valid regions) as JSON to this file ("-" for stdout).
+    /// Write R1, R2, P1, P2, Q (and the valid regions) as JSON to this file ("-" for stdout),
+    /// after the rectified images (--out): a run that fails on an image writes no JSON.
     #[arg(short, long, value_name = "RECT.json")]
     pub output: Option<String>,
     /// Left images to rectify (with --right and --out).
@@ -716,7 +717,6 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
     }
     if let Some(path) = &args.output {
         check_not_input(path, &[&args.input])?;
-        write_json(path, &rect.to_json())?;
     }
     if let Some(dir) = &args.out {
         crate::create_folder(dir, "--out")?;
@@ -747,6 +747,11 @@ pub fn run_rectify(args: &RectifyArgs) -> Result<(), Failure> {
                 .map_err(|e| Failure(e.to_string()))?;
             remap_all(&right, &right_out, &right_map)
         })?;
+    }
+    // The JSON last: a run whose images failed (or that was interrupted) leaves no JSON that
+    // claims a finished rectification.
+    if let Some(path) = &args.output {
+        write_json(path, &rect.to_json())?;
     }
     let say = match (args.quiet, args.output.as_deref()) {
         (true, _) => Say::Nothing,

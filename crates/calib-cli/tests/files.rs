@@ -341,3 +341,55 @@ fn a_stereo_rig_that_cannot_be_rectified_is_exported_without_rectification() {
     );
     assert!(!dir.join("ros-left.yaml").exists() && !dir.join("ros-right.yaml").exists());
 }
+
+/// `calib rectify -o RECT.json --out DIR`: the JSON is written after the rectified images, so
+/// a run whose images fail (here the right image's output path is a folder) leaves no JSON
+/// claiming a finished run (before, the JSON was written first and stayed).
+#[test]
+fn rectify_writes_its_json_after_the_images() {
+    let dir = scratch("rectify-order");
+    let rig = dir.join("rig.json");
+    let run = calib()
+        .args(["stereo", &data("sourishg1/stereo.json"), "-q", "-o"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let (rect, out) = (dir.join("rect.json"), dir.join("rectified"));
+    std::fs::create_dir_all(out.join("right/right3.jpg")).unwrap();
+    let rectify = |rect: &std::path::Path| {
+        let mut c = calib();
+        c.arg("rectify")
+            .arg(&rig)
+            .arg("-o")
+            .arg(rect)
+            .args(["--images", &data("sourishg1/images/left3.jpg")])
+            .args(["--right", &data("sourishg1/images/right3.jpg")])
+            .arg("--out")
+            .arg(&out);
+        c
+    };
+    let err = fails(&mut rectify(&rect));
+    assert!(err.contains("right3.jpg"), "{err}");
+    assert!(
+        !rect.exists(),
+        "the JSON was written before the images failed"
+    );
+    // Once the images can be written, the JSON follows them.
+    std::fs::remove_dir(out.join("right/right3.jpg")).unwrap();
+    let run = rectify(&rect).output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(rect.exists() && out.join("right/right3.jpg").is_file());
+    let (json, image) = (
+        std::fs::metadata(&rect).unwrap().modified().unwrap(),
+        std::fs::metadata(out.join("right/right3.jpg"))
+            .unwrap()
+            .modified()
+            .unwrap(),
+    );
+    assert!(json >= image);
+}
