@@ -1,10 +1,12 @@
 //! The `calib` command: a thin front end over the calibration crates.
 //!
 //! Exit codes: 0 success; 1 bad input or failed calibration (one-line message on stderr); 2 bad
-//! command line (from the argument parser).
+//! command line (from the argument parser); 128 + the signal (130 Ctrl-C, 143 SIGTERM, 129
+//! SIGHUP) when a signal stopped the run, its temporary files removed (module `interrupt`).
 
 mod after;
 mod detect;
+mod interrupt;
 mod rig;
 mod run;
 mod single;
@@ -62,6 +64,7 @@ impl<E: std::fmt::Display> From<E> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    interrupt::install();
     let result = match cli.command {
         Command::Single(args) => single::run(&args),
         Command::Stereo(args) => stereo::run(&args),
@@ -76,6 +79,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(message)) => {
+            interrupt::wait_if_stopping();
             let _ = writeln!(std::io::stderr(), "calib: {message}");
             ExitCode::from(1)
         }

@@ -393,3 +393,101 @@ fn rectify_writes_its_json_after_the_images() {
     );
     assert!(json >= image);
 }
+
+/// Ctrl-C (SIGINT) or SIGTERM while a big file is written: the run exits with 128 + the signal
+/// (130, 143), removes its temporary `.NAME.tmp-PID` file and leaves the previous file as it was
+/// (before, the signal ended the process and the temporary file stayed beside the output).
+/// The signal is sent as soon as the temporary file appears; a run that finished first is
+/// repeated with a bigger file.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_write_leaves_no_temporary_file_and_the_old_result() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = scratch("interrupted");
+    let out = dir.join("big.json");
+    let temporary = |dir: &std::path::Path| -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".big.json.tmp-"))
+            .collect()
+    };
+    for (signal, code) in [(libc::SIGINT, 130), (libc::SIGTERM, 143)] {
+        let mut caught = false;
+        for views in [4000, 8000, 16000, 32000] {
+            std::fs::write(&out, "the previous result").unwrap();
+            let mut child = calib()
+                .args(["synth", "single", "--views", &views.to_string(), "-o"])
+                .arg(&out)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap();
+            let mut sent = false;
+            let status = loop {
+                if let Some(status) = child.try_wait().unwrap() {
+                    break status;
+                }
+                if !sent && !temporary(&dir).is_empty() {
+                    // SAFETY: kill(2) on the child's process id.
+                    assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+                    sent = true;
+                }
+                std::thread::sleep(std::time::Duration::from_micros(200));
+            };
+            let mut err = String::new();
+            std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+            assert!(temporary(&dir).is_empty(), "{:?} left", temporary(&dir));
+            if !sent || status.success() {
+                // The write finished before the signal: try a bigger one.
+                assert!(status.success(), "{status:?} {err}");
+                continue;
+            }
+            assert_eq!(
+                (status.code(), status.signal()),
+                (Some(code), None),
+                "signal {signal}: {err}"
+            );
+            assert_eq!(err, "", "signal {signal}");
+            // The previous file, or (a signal just after the rename) the new one whole.
+            let text = std::fs::read_to_string(&out).unwrap();
+            if text != "the previous result" {
+                let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+                assert_eq!(json["views"].as_array().unwrap().len(), views);
+                continue;
+            }
+            eprintln!("signal {signal}: interrupted the write of {views} views");
+            caught = true;
+            break;
+        }
+        assert!(
+            caught,
+            "signal {signal}: no write was slow enough to interrupt"
+        );
+    }
+    // A Ctrl-C the run was started to ignore (a shell script's background job, `trap '' INT`)
+    // stays ignored: the run finishes.
+    let mut child = Command::new("sh")
+        .args(["-c", "trap '' INT; exec \"$0\" \"$@\""])
+        .arg(env!("CARGO_BIN_EXE_calib"))
+        .args(["synth", "single", "--views", "4000", "-o"])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if !temporary(&dir).is_empty() {
+            // SAFETY: kill(2) on the child's process id.
+            unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+        }
+        std::thread::sleep(std::time::Duration::from_micros(200));
+    };
+    assert!(status.success(), "{status:?}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(json["views"].as_array().unwrap().len(), 4000);
+}

@@ -305,13 +305,73 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> std::io::Result<()> {
         Target::Direct => write_directly(path, contents),
         Target::Replace(path, permissions) => {
             let temporary = stage(&path, contents, permissions)?;
-            let renamed = std::fs::rename(&temporary, &path);
+            let renamed = rename_into_place(&temporary, &path);
             if renamed.is_err() {
-                let _ = std::fs::remove_file(&temporary);
+                discard(&temporary);
             }
             renamed
         }
     }
+}
+
+/// The temporary files of the writes in progress ([`stage`] to [`rename_into_place`]), for
+/// [`remove_temporary_files`]; `closing` once they were removed.
+struct InFlight {
+    paths: Vec<std::path::PathBuf>,
+    closing: bool,
+}
+
+static IN_FLIGHT: std::sync::Mutex<InFlight> = std::sync::Mutex::new(InFlight {
+    paths: Vec::new(),
+    closing: false,
+});
+
+fn in_flight() -> std::sync::MutexGuard<'static, InFlight> {
+    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The error of a write asked for after [`remove_temporary_files`].
+fn closing() -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::Interrupted,
+        "the program is stopping (interrupted): nothing more is written",
+    )
+}
+
+/// Removes the temporary files of every write in progress (the `.NAME.tmp-PID` files beside
+/// the outputs) and makes every later write fail, so none is left behind: for a program that
+/// exits on Ctrl-C (SIGINT) or SIGTERM, called from its signal-handling thread just before it
+/// exits. A write either finished (its file replaced whole) or leaves the previous file as it
+/// was. Returns how many files were removed. (A process killed outright, SIGKILL or a power
+/// cut, cannot do this: its leftover `.NAME.tmp-PID` files are incomplete copies, safe to
+/// delete.)
+pub fn remove_temporary_files() -> usize {
+    let mut in_flight = in_flight();
+    in_flight.closing = true;
+    let paths = std::mem::take(&mut in_flight.paths);
+    paths
+        .iter()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count()
+}
+
+/// Renames a staged temporary file over `path`, unless [`remove_temporary_files`] came first
+/// (then the temporary file is gone and this fails).
+fn rename_into_place(temporary: &Path, path: &Path) -> std::io::Result<()> {
+    let mut in_flight = in_flight();
+    if in_flight.closing {
+        return Err(closing());
+    }
+    std::fs::rename(temporary, path)?;
+    in_flight.paths.retain(|p| p != temporary);
+    Ok(())
+}
+
+/// Removes a staged temporary file that is not to be renamed.
+fn discard(temporary: &Path) {
+    let mut in_flight = in_flight();
+    let _ = std::fs::remove_file(temporary);
+    in_flight.paths.retain(|p| p != temporary);
 }
 
 /// How a path is written.
@@ -386,7 +446,7 @@ pub fn write_group_atomically(
     let cleanup =
         |temporaries: &[(std::path::PathBuf, std::path::PathBuf, &std::path::PathBuf)]| {
             for (t, _, _) in temporaries {
-                let _ = std::fs::remove_file(t);
+                discard(t);
             }
         };
     for (path, contents) in files {
@@ -409,7 +469,7 @@ pub fn write_group_atomically(
         }
     }
     for (i, (temporary, real, path)) in temporaries.iter().enumerate() {
-        if let Err(e) = std::fs::rename(temporary, real) {
+        if let Err(e) = rename_into_place(temporary, real) {
             cleanup(&temporaries[i..]);
             return Err(((*path).clone(), e));
         }
@@ -421,7 +481,8 @@ pub fn write_group_atomically(
 }
 
 /// Writes `contents` into a new temporary file beside `path` (with `permissions`, if given),
-/// flushed to disk; returns its path.
+/// flushed to disk; returns its path, registered for [`remove_temporary_files`] from its
+/// creation until it is renamed ([`rename_into_place`]) or removed ([`discard`]).
 fn stage(
     path: &Path,
     contents: &[u8],
@@ -440,13 +501,21 @@ fn stage(
         std::process::id()
     ));
     let mut attempt = 0;
+    // Created and registered under the lock: an interruption removes the file or comes before it.
+    let mut registry = in_flight();
+    if registry.closing {
+        return Err(closing());
+    }
     let mut file = loop {
         match std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(&temporary)
         {
-            Ok(f) => break f,
+            Ok(f) => {
+                registry.paths.push(temporary.clone());
+                break f;
+            }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
                 attempt += 1;
                 temporary = dir.join(format!(
@@ -458,6 +527,8 @@ fn stage(
             Err(e) => return Err(e),
         }
     };
+    // The contents are written without the lock: an interruption need not wait for them.
+    drop(registry);
     let written = file
         .write_all(contents)
         .and_then(|()| match permissions {
@@ -468,7 +539,7 @@ fn stage(
     match written {
         Ok(()) => Ok(temporary),
         Err(e) => {
-            let _ = std::fs::remove_file(&temporary);
+            discard(&temporary);
             Err(e)
         }
     }
