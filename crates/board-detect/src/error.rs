@@ -56,6 +56,14 @@ pub enum DetectError {
     #[error("cannot decode image: {0}")]
     Decode(String),
 
+    /// A JPEG file that ends before its end-of-image marker: cut short, as a copy or download
+    /// that did not finish leaves it. Decoders fill the missing part with grey; it is refused
+    /// instead, so no detection runs on a partly grey image.
+    #[error(
+        "the file is cut short (truncated JPEG: it ends before its end-of-image marker, as a copy or download that did not finish leaves it)"
+    )]
+    Truncated,
+
     /// No chessboard-like corner grid was found, or only one with fewer than half of the
     /// board's corners (or fewer than 12, or fewer than 4 on a side): what textures and noise
     /// can give.

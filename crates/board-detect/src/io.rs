@@ -35,7 +35,88 @@ pub fn load_upright(
     path: &Path,
     options: &DetectOptions,
 ) -> Result<image::DynamicImage, DetectError> {
-    decode_upright(open_checked(path)?, options)
+    let reader = open_checked(path)?;
+    if reader.format() != Some(ImageFormat::Jpeg) {
+        return decode_upright(reader, options);
+    }
+    // The JPEG decoder reads the whole file into memory anyway: read it here, once, to check
+    // that it is complete before decoding it.
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut reader.into_inner(), &mut bytes).map_err(|e| {
+        DetectError::Io {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
+    })?;
+    check_jpeg_complete(&bytes)?;
+    decode_upright(
+        ImageReader::with_format(std::io::Cursor::new(bytes.as_slice()), ImageFormat::Jpeg),
+        options,
+    )
+}
+
+/// Refuses a JPEG stream that ends before its end-of-image marker (`FF D9`), which decoders
+/// accept silently, filling the missing rows with grey. The marker segments are followed by
+/// their lengths (an EXIF thumbnail's own `FF D9` inside APP1 does not count) and the
+/// entropy-coded data of each scan up to the next marker, as libjpeg reads them (where it
+/// warns "Premature end of JPEG file"); bytes after the end-of-image marker are allowed. A
+/// stream that is not JPEG at all is left to the decoder.
+pub(crate) fn check_jpeg_complete(bytes: &[u8]) -> Result<(), DetectError> {
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return Ok(());
+    }
+    let n = bytes.len();
+    let mut i = 2;
+    loop {
+        // The next marker: 0xFF (and any fill 0xFFs), then its code. Stray bytes between
+        // segments are skipped, as libjpeg does.
+        let Some(ff) = memchr::memchr(0xFF, &bytes[i..]) else {
+            return Err(DetectError::Truncated);
+        };
+        i += ff;
+        while i < n && bytes[i] == 0xFF {
+            i += 1;
+        }
+        let Some(&code) = bytes.get(i) else {
+            return Err(DetectError::Truncated);
+        };
+        i += 1;
+        match code {
+            0xD9 => return Ok(()),
+            // Markers without a length: restart markers, TEM, SOI, and a stuffed 0x00 out of
+            // place.
+            0x00 | 0x01 | 0xD0..=0xD8 => {}
+            _ => {
+                let Some(length) = bytes.get(i..i + 2) else {
+                    return Err(DetectError::Truncated);
+                };
+                // The length counts its own two bytes.
+                i += usize::from(u16::from_be_bytes([length[0], length[1]])).max(2);
+                if i > n {
+                    return Err(DetectError::Truncated);
+                }
+                if code == 0xDA {
+                    // Start of scan: entropy-coded data up to the next marker other than a
+                    // stuffed byte (FF 00) or a restart marker (FF D0 ... FF D7).
+                    loop {
+                        let Some(ff) = memchr::memchr(0xFF, &bytes[i..]) else {
+                            return Err(DetectError::Truncated);
+                        };
+                        let at = i + ff;
+                        match bytes.get(at + 1) {
+                            None => return Err(DetectError::Truncated),
+                            Some(0x00 | 0xD0..=0xD7) => i = at + 2,
+                            Some(0xFF) => i = at + 1,
+                            Some(_) => {
+                                i = at;
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The upright size `(width, height)` of a JPEG or PNG file ([`load_upright`]'s), from its
@@ -89,6 +170,9 @@ pub fn decode_gray(bytes: &[u8], options: &DetectOptions) -> Result<image::GrayI
         .with_guessed_format()
         .map_err(|e| DetectError::Decode(e.to_string()))?;
     check_format(reader.format())?;
+    if reader.format() == Some(ImageFormat::Jpeg) {
+        check_jpeg_complete(bytes)?;
+    }
     decode_upright(reader, options).map(to_gray8)
 }
 

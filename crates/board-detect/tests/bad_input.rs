@@ -113,6 +113,41 @@ fn inconsistent_buffers_are_refused() {
     assert!(Board::new(9, 6, f64::NAN).is_err());
 }
 
+/// A JPEG cut short anywhere after its header is refused as such, before decoding: decoders
+/// fill the missing part with grey (before, half an image decoded without a word). Bytes after
+/// the end-of-image marker are allowed.
+#[test]
+fn a_jpeg_cut_short_anywhere_is_named() {
+    let bytes = sample_jpeg();
+    let opts = DetectOptions::default();
+    let mut cut: Vec<usize> = (20..bytes.len()).step_by(97).collect();
+    cut.extend([bytes.len() / 2, bytes.len() - 2, bytes.len() - 1]);
+    for keep in cut {
+        assert_eq!(
+            decode_gray(&bytes[..keep], &opts).map(|_| ()),
+            Err(DetectError::Truncated),
+            "{keep} of {} bytes",
+            bytes.len()
+        );
+    }
+    assert!(decode_gray(&bytes, &opts).is_ok());
+    let mut trailing = bytes.clone();
+    trailing.extend_from_slice(b"\0\0 bytes some cameras append");
+    assert!(decode_gray(&trailing, &opts).is_ok());
+    let err = DetectError::Truncated.to_string();
+    assert!(err.contains("cut short (truncated JPEG"), "{err}");
+    // From a file, too.
+    let dir = std::env::temp_dir().join(format!("board-detect-cut-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("left3.jpg");
+    std::fs::write(&f, &bytes[..bytes.len() / 2]).unwrap();
+    assert_eq!(
+        load_gray(&f, &opts).map(|_| ()),
+        Err(DetectError::Truncated)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn truncated_jpeg_is_a_reason() {
     let bytes = sample_jpeg();

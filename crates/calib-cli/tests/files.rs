@@ -491,3 +491,75 @@ fn an_interrupted_write_leaves_no_temporary_file_and_the_old_result() {
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(json["views"].as_array().unwrap().len(), 4000);
 }
+
+/// A JPEG cut short (a copy that did not finish) is named as such: listed in
+/// `rejected_images` with that reason like any unreadable image, and an error naming the file
+/// where an image is undistorted. Before, it decoded with its missing half grey, and the
+/// detector ran on that.
+#[test]
+fn a_jpeg_cut_short_is_named() {
+    let dir = scratch("cut-short");
+    for i in [1, 2] {
+        let name = format!("left{i}.jpg");
+        std::fs::copy(data(&format!("sourishg1/images/{name}")), dir.join(&name)).unwrap();
+    }
+    let whole = std::fs::read(data("sourishg1/images/left3.jpg")).unwrap();
+    let cut = dir.join("left3.jpg");
+    std::fs::write(&cut, &whole[..whole.len() / 2]).unwrap();
+    let obs = dir.join("obs.json");
+    let run = calib()
+        .args(["detect", "--board", "9x6", "-q", "-o"])
+        .arg(&obs)
+        .arg(dir.join("left1.jpg"))
+        .arg(dir.join("left2.jpg"))
+        .arg(&cut)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&obs).unwrap()).unwrap();
+    assert_eq!(json["views"].as_array().unwrap().len(), 2);
+    let rejected = &json["rejected_images"];
+    assert_eq!(rejected.as_array().unwrap().len(), 1, "{rejected}");
+    assert_eq!(rejected[0]["image"], "left3.jpg");
+    let reason = rejected[0]["reason"].as_str().unwrap();
+    assert!(
+        reason.starts_with("the file is cut short (truncated JPEG"),
+        "{reason}"
+    );
+    // The image alone: the error names it and why.
+    let err = fails(
+        calib()
+            .args(["detect", "--board", "9x6", "-q", "-o"])
+            .arg(dir.join("alone.json"))
+            .arg(&cut),
+    );
+    assert!(
+        err.contains("left3.jpg: the file is cut short (truncated JPEG"),
+        "{err}"
+    );
+    // Undistorting it.
+    let result = dir.join("left.json");
+    let run = calib()
+        .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
+        .arg(&result)
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let err = fails(
+        calib()
+            .arg("undistort")
+            .arg(&result)
+            .arg("-o")
+            .arg(dir.join("undistorted"))
+            .arg(&cut),
+    );
+    assert!(
+        err.contains("left3.jpg: the file is cut short (truncated JPEG"),
+        "{err}"
+    );
+}
