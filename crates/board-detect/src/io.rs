@@ -433,6 +433,61 @@ pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
     })
 }
 
+/// The rig observation file (see `docs/formats.md`) for `cameras`, each a name and its images
+/// in frame order (`cameras[c].1[f]` is camera `c`'s image of frame `f`; the lists have one
+/// length): `cameras` with `name` and `image_size` (of the camera's first image with a board;
+/// absent when none has one), `frames` with the board's `object_points` and one observation
+/// (`camera`, `image` ([`image_names`] of that camera), `image_points`) per camera whose image
+/// of the frame shows the board, one frame per input index (a frame no camera saw has no
+/// observations, so that frame `f` is always the `f`-th images); `rejected_images` with `camera` (the name), `image` and `reason`;
+/// `detection_seconds_per_image` (median over all images) and `board`.
+pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Board) -> Value {
+    let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
+    let names: Vec<Vec<String>> = cameras.iter().map(|(_, r)| image_names(r)).collect();
+    let firsts: Vec<Option<([usize; 2], &str)>> = cameras
+        .iter()
+        .zip(&names)
+        .map(|((_, r), n)| first_size(r, n))
+        .collect();
+    let frames_given = cameras.iter().map(|(_, r)| r.len()).max().unwrap_or(0);
+    let mut frames = Vec::new();
+    let mut rejected = Vec::new();
+    for f in 0..frames_given {
+        let mut observations = Vec::new();
+        for (c, (name, results)) in cameras.iter().enumerate() {
+            let (Some(r), Some(image)) = (results.get(f), names[c].get(f)) else {
+                continue;
+            };
+            match usable(r, firsts[c], &format!("{name} ")) {
+                Ok(corners) => observations.push(json!({
+                    "camera": c,
+                    "image": image,
+                    "image_points": points_json(&corners),
+                })),
+                Err(reason) => {
+                    rejected.push(json!({"camera": name, "image": image, "reason": reason}))
+                }
+            }
+        }
+        frames.push(json!({"object_points": obj.clone(), "observations": observations}));
+    }
+    let camera_list: Vec<Value> = cameras
+        .iter()
+        .zip(&firsts)
+        .map(|((name, _), first)| match first {
+            Some((size, _)) => json!({"name": name, "image_size": size}),
+            None => json!({"name": name}),
+        })
+        .collect();
+    json!({
+        "cameras": camera_list,
+        "frames": frames,
+        "rejected_images": rejected,
+        "detection_seconds_per_image": median(cameras.iter().flat_map(|(_, r)| r.iter()).filter_map(|r| r.detection_seconds).collect()),
+        "board": board_json(board),
+    })
+}
+
 /// The stereo observation file for paired lists (`left[i]` with `right[i]`; extra entries of
 /// the longer list are reported as unpaired): `image_size` (the left camera's, from its first
 /// image with a board), `right_image_size` (the right camera's, likewise; written when it

@@ -59,7 +59,7 @@
 //! ```
 //!
 //! Files: [`detect_file`] and [`detect_files`] (parallel over images, per-image results and
-//! detection times), [`observations_json`] and [`stereo_observations_json`] (the workspace's
+//! detection times), [`observations_json`], [`stereo_observations_json`] and [`rig_observations_json`] (the workspace's
 //! observation format), [`write_overlay_png`] (a picture of what was found).
 #![deny(missing_docs)]
 
@@ -265,6 +265,7 @@ pub fn detect(
 mod io;
 pub use io::{
     ImageResult, decode_gray, detect_file, detect_files, detect_image, image_names, load_gray,
-    load_upright, observations_json, stereo_observations_json, upright_dimensions,
+    load_upright, observations_json, rig_observations_json, stereo_observations_json,
+    upright_dimensions,
 };
 pub mod synth;

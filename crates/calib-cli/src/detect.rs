@@ -13,7 +13,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 #[derive(Args, Debug, Clone)]
 pub struct BoardArgs {
     /// Chessboard inner corners COLSxROWS (a 9x6 board has 10x7 squares). With it, the inputs
-    /// of `calib single` and `calib stereo` are images instead of an observation file.
+    /// of `calib single` and `calib stereo` (and `calib rig`'s --camera) are images instead of
+    /// an observation file.
     #[arg(long, value_name = "COLSxROWS")]
     pub board: Option<String>,
     /// Side of a square, in the unit the translations should have (mm, m, ...).
@@ -300,6 +301,49 @@ pub fn stereo_observations(
     let mut all = l;
     all.extend(r);
     Ok((all, file))
+}
+
+/// Detects the board in every camera's images, frame `f` being each camera's `f`-th image, and
+/// returns the rig observation file ([`board_detect::rig_observations_json`]); fails when the
+/// cameras give different numbers of images or a camera has no image with the board. Overlays
+/// go to `DIR/NAME/`.
+pub fn rig_observations(
+    cameras: &[(String, Vec<PathBuf>)],
+    board: &Board,
+    args: &BoardArgs,
+    threads: usize,
+) -> Result<(Vec<ImageResult>, Value), Failure> {
+    let frames = cameras.first().map_or(0, |(_, p)| p.len());
+    if let Some((name, paths)) = cameras.iter().find(|(_, p)| p.len() != frames) {
+        return Err(Failure(format!(
+            "camera '{name}' has {} images but camera '{}' has {frames}: frames are matched in order (the f-th image of every camera is frame f), so every camera needs one image per frame, in the same order",
+            paths.len(),
+            cameras[0].0
+        )));
+    }
+    let named: Vec<(&str, &[PathBuf])> = cameras
+        .iter()
+        .map(|(n, p)| (n.as_str(), p.as_slice()))
+        .collect();
+    let overlays = args.draw.as_ref().map(|dir| overlay_paths(dir, &named));
+    if let Some(overlays) = &overlays {
+        let outs: Vec<&[PathBuf]> = overlays.iter().map(Vec::as_slice).collect();
+        let ins: Vec<&[PathBuf]> = cameras.iter().map(|(_, p)| p.as_slice()).collect();
+        check_overlays(&outs, &ins)?;
+    }
+    let mut detected = Vec::with_capacity(cameras.len());
+    for (c, (name, paths)) in cameras.iter().enumerate() {
+        let overlay = overlays.as_ref().map(|o| o[c].as_slice());
+        let results = detect_all(paths, board, overlay, threads, &format!("{name} "))?;
+        detected.push((name.clone(), results));
+    }
+    for (name, results) in &detected {
+        let one = board_detect::observations_json(results, board);
+        require_views(&one, results.len(), false)
+            .map_err(|Failure(m)| Failure(format!("camera '{name}': {m}")))?;
+    }
+    let file = board_detect::rig_observations_json(&detected, board);
+    Ok((detected.into_iter().flat_map(|(_, r)| r).collect(), file))
 }
 
 /// The images a calibration from photographs left out, for its result: the observation

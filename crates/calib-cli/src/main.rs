@@ -33,7 +33,7 @@ enum Command {
     /// Calibrate a stereo rig from a stereo observation file, or from photographs (--board,
     /// --square, the left images, --right and the right images).
     Stereo(stereo::StereoArgs),
-    /// Calibrate a rig of N cameras (any overlap) from a rig observation file: every camera's
+    /// Calibrate a rig of N cameras (any overlap) from a rig observation file, or from photographs (--board, --square, --camera NAME IMAGE... per camera): every camera's
     /// intrinsics, its transform from the reference camera and the board pose of every frame.
     Rig(rig::RigArgs),
     /// Detect a chessboard's corners in photographs and write an observation file.
@@ -63,7 +63,22 @@ impl<E: std::fmt::Display> From<E> for Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let mut cli =
+        <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // clap's derive flattens repeated multi-value options: `calib rig --camera NAME IMAGE...`
+    // is regrouped per occurrence here.
+    if let (Command::Rig(args), Some(("rig", rig))) = (&mut cli.command, matches.subcommand()) {
+        args.cameras = rig
+            .get_occurrences::<String>("camera_images")
+            .into_iter()
+            .flatten()
+            .map(|mut group| {
+                let name = group.next().cloned().unwrap_or_default();
+                (name, group.cloned().collect())
+            })
+            .collect();
+    }
     interrupt::install();
     let result = match cli.command {
         Command::Single(args) => single::run(&args),

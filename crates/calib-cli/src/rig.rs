@@ -1,6 +1,7 @@
 //! `calib rig`: calibrate a rig of N cameras.
 
 use crate::Failure;
+use crate::detect::{self, BoardArgs};
 use crate::run::{OutputArgs, calibrate_and_report};
 use crate::single::{CameraArgs, looks_like_image, split_named};
 use calib_core::JsonFile;
@@ -12,9 +13,29 @@ use clap::Args;
 #[derive(Args, Debug)]
 pub struct RigArgs {
     /// Rig observation file (JSON, see docs/formats.md): the cameras and, per frame, the board
-    /// points and each camera's pixels.
-    #[arg(value_name = "RIG.json")]
-    pub input: String,
+    /// points and each camera's pixels. Or photographs: --board, --square and --camera per camera.
+    #[arg(value_name = "RIG.json", required_unless_present = "camera_images")]
+    pub input: Option<String>,
+    /// Board detection for --camera (--board COLSxROWS, --square SIZE, --draw DIR: overlays in
+    /// DIR/NAME/).
+    #[command(flatten)]
+    pub board: BoardArgs,
+    /// A camera's name and its photographs, one per frame in frame order (repeat per camera:
+    /// --camera left L1.jpg L2.jpg ... --camera right R1.jpg R2.jpg ...). Frame f is the f-th
+    /// image of every camera, so every camera gives the same number of images; an image without
+    /// a usable board leaves that camera out of that frame (listed in rejected_images).
+    #[arg(
+        long = "camera",
+        num_args = 2..,
+        action = clap::ArgAction::Append,
+        value_names = ["NAME", "IMAGE"],
+        conflicts_with = "input"
+    )]
+    pub camera_images: Vec<String>,
+    /// The --camera groups, `(name, images)` (filled from the parsed command line: clap's derive
+    /// flattens them).
+    #[arg(skip)]
+    pub cameras: Vec<(String, Vec<String>)>,
     #[command(flatten)]
     pub output: OutputArgs,
     /// Options for every camera. Per camera: --model NAME=MODEL (over the file's "model", which
@@ -165,18 +186,75 @@ impl RigArgs {
     }
 }
 
-pub fn run(args: &RigArgs) -> Result<(), Failure> {
-    args.output.check_against(&[args.input.as_str()])?;
-    if looks_like_image(&args.input) {
-        return Err(Failure(format!(
-            "{} is an image: calib rig reads a rig observation file (detect each camera's corners with calib detect first)",
-            args.input
-        )));
+/// The rig observations: the file, or detected in the --camera images.
+fn observations(
+    args: &RigArgs,
+) -> Result<
+    (
+        RigObservations,
+        String,
+        Vec<String>,
+        Option<detect::Skipped>,
+    ),
+    Failure,
+> {
+    if args.cameras.is_empty() {
+        let Some(input) = &args.input else {
+            return Err(Failure(
+                "give a rig observation file, or photographs with --board COLSxROWS --square SIZE and --camera NAME IMAGE... per camera".into(),
+            ));
+        };
+        args.output.check_against(&[input.as_str()])?;
+        if args.board.board.is_some() {
+            return Err(Failure(format!(
+                "--board: {input} is an observation file; with --board give each camera's photographs with --camera NAME IMAGE..."
+            )));
+        }
+        if looks_like_image(input) {
+            return Err(Failure(format!(
+                "{input} is an image: give each camera's photographs with --board COLSxROWS --square SIZE --camera NAME IMAGE... (or detect the corners first and write a rig observation file)"
+            )));
+        }
+        let observations = RigObservations::read_bounded(input, args.output.max_input())?;
+        return Ok((observations, input.clone(), vec![input.clone()], None));
     }
-    let observations = RigObservations::read_bounded(&args.input, args.output.max_input())?;
+    let board = args.board.board()?.ok_or_else(|| {
+        Failure("--camera: give the board too (--board COLSxROWS --square SIZE)".into())
+    })?;
+    let inputs: Vec<String> = args.cameras.iter().flat_map(|(_, p)| p.clone()).collect();
+    args.output
+        .check_against(&inputs.iter().map(String::as_str).collect::<Vec<_>>())?;
+    for (k, (name, _)) in args.cameras.iter().enumerate() {
+        if args.cameras[..k].iter().any(|(n, _)| n == name) {
+            return Err(Failure(format!(
+                "--camera {name} is given twice: give each camera once, with all its images"
+            )));
+        }
+    }
+    let cameras: Vec<(String, Vec<std::path::PathBuf>)> = args
+        .cameras
+        .iter()
+        .map(|(n, p)| (n.clone(), p.iter().map(std::path::PathBuf::from).collect()))
+        .collect();
+    let (results, file) =
+        detect::rig_observations(&cameras, &board, &args.board, args.camera.threads)?;
+    args.output.say().text(&detect::summary(&results, &file))?;
+    let frames = cameras[0].1.len();
+    let skipped = detect::Skipped::from_file(&file, results.len());
+    let observations = RigObservations::from_file(serde_json::from_value(file)?);
+    Ok((
+        observations,
+        format!("{} cameras x {frames} frames of images", cameras.len()),
+        inputs,
+        Some(skipped),
+    ))
+}
+
+pub fn run(args: &RigArgs) -> Result<(), Failure> {
+    let (observations, source, inputs, skipped) = observations(args)?;
     let options = args.options(&observations)?;
-    let source = args.input.clone();
-    let result = calibrate_and_report(&source, &[args.input.as_str()], &args.output, None, || {
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
         calibrate_rig(&observations, &options).map_err(|e| Failure(format!("{source}: {e}")))
     })?;
     if let Some(dir) = &args.output.report {

@@ -495,3 +495,133 @@ fn fix_names_are_held_per_camera_model() {
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(err.contains("camera 'cam0'"), "{err}");
 }
+
+/// A bundled image, `data/NAME` at the workspace root.
+fn bundled(name: &str) -> String {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data");
+    root.join(name).to_string_lossy().into_owned()
+}
+
+fn images(camera: &str, frames: std::ops::RangeInclusive<usize>) -> Vec<String> {
+    frames
+        .map(|i| bundled(&format!("sourishg1/images/{camera}{i}.jpg")))
+        .collect()
+}
+
+fn json(path: &std::path::Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// `calib rig` from photographs: --board, --square and --camera NAME IMAGE... per camera. On the
+/// bundled pair it is `calib stereo` from the same photographs (the rig engine reaches the
+/// stereo minimum); a frame whose image of one camera has no usable board keeps the other
+/// camera's view and lists the image in `rejected_images`; unequal image counts are refused.
+#[test]
+fn a_rig_is_calibrated_from_photographs() {
+    let (left, right) = (images("left", 1..=29), images("right", 1..=29));
+    let stereo = temp("photos-stereo.json");
+    run_ok(
+        calib()
+            .args(["stereo", "-q", "--board", "9x6", "--square", "24.23"])
+            .args(&left)
+            .arg("--right")
+            .args(&right)
+            .arg("-o")
+            .arg(&stereo),
+    );
+    let rig = temp("photos-rig.json");
+    run_ok(
+        calib()
+            .args([
+                "rig", "-q", "--board", "9x6", "--square", "24.23", "--camera", "left",
+            ])
+            .args(&left)
+            .args(["--camera", "right"])
+            .args(&right)
+            .arg("-o")
+            .arg(&rig),
+    );
+    let (s, r) = (json(&stereo), json(&rig));
+    let rms = |v: &Value| v["rms"].as_f64().unwrap();
+    assert!(
+        (rms(&s) - rms(&r)).abs() < 1e-9 * rms(&s),
+        "{} {}",
+        rms(&s),
+        rms(&r)
+    );
+    assert_eq!(r["cameras"][1]["name"], "right");
+    assert_eq!(r["frames"].as_array().unwrap().len(), 29);
+
+    // Frame 3's right image cut short: that frame keeps its left view only.
+    let cut = temp("right4.jpg");
+    let bytes = std::fs::read(&right[3]).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let mut damaged = right.clone();
+    damaged[3] = cut.to_string_lossy().into_owned();
+    let out = temp("photos-rig-damaged.json");
+    let run = run_ok(
+        calib()
+            .args([
+                "rig", "--board", "9x6", "--square", "24.23", "--camera", "left",
+            ])
+            .args(&left)
+            .args(["--camera", "right"])
+            .args(&damaged)
+            .arg("-o")
+            .arg(&out),
+    );
+    let summary = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(
+        summary.contains("detected the board in 57 of 58 images"),
+        "{summary}"
+    );
+    let result = json(&out);
+    let rejected = result["rejected_images"].as_array().unwrap();
+    assert_eq!(rejected.len(), 1, "{rejected:?}");
+    assert_eq!(rejected[0]["camera"], "right");
+    assert_eq!(rejected[0]["image"], "right4.jpg");
+    let frame3 = result["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["index"] == 3)
+        .unwrap();
+    assert_eq!(frame3["views"].as_array().unwrap().len(), 1, "{frame3}");
+    assert!(
+        result["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["code"] == "images-skipped"),
+        "{:?}",
+        result["warnings"]
+    );
+
+    // Frames are matched in order: unequal counts are refused, naming both cameras.
+    let run = calib()
+        .args(["rig", "--board", "9x6", "--camera", "left"])
+        .args(&left)
+        .args(["--camera", "right"])
+        .args(&right[..28])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        message.contains("camera 'right' has 28 images but camera 'left' has 29"),
+        "{message}"
+    );
+    // --camera without --board, and a file with --camera, are explained.
+    let run = calib()
+        .args(["rig", "--camera", "left"])
+        .args(&left[..3])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&run.stderr).contains("give the board too"));
+    let run = calib()
+        .args(["rig", "x.json", "--camera", "left"])
+        .args(&left[..3])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+}
