@@ -31,6 +31,21 @@ fn fails(command: &mut Command) -> String {
     err
 }
 
+/// Runs `calib ARGS... -q -o OUTPUT` and checks that it succeeded.
+fn writes(args: &[&str], output: &std::path::Path) {
+    let run = calib()
+        .args(args)
+        .args(["-q", "-o"])
+        .arg(output)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+}
+
 /// A stereo file given to `calib single`, a single camera's to `calib rig`, a result given
 /// where observations are read: the message says what the file is and which command reads it,
 /// not serde's "missing field `views` at line 11472".
@@ -51,12 +66,7 @@ fn a_file_of_another_kind_is_named() {
     );
     let dir = scratch("kind");
     let result = dir.join("result.json");
-    let run = calib()
-        .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
-        .arg(&result)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["single", &data("sourishg1/left.json")], &result);
     let err = fails(calib().arg("stereo").arg(&result));
     assert!(
         err.contains("this is a result of calib single")
@@ -97,12 +107,7 @@ fn links_pipes_and_read_only_results() {
     std::fs::write(&real, "{}").unwrap();
     std::os::unix::fs::symlink("real.json", &link).unwrap();
     let obs = data("sourishg1/left.json");
-    let run = calib()
-        .args(["single", &obs, "-q", "-o"])
-        .arg(&link)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["single", &obs], &link);
     assert!(
         std::fs::symlink_metadata(&link)
             .unwrap()
@@ -189,12 +194,7 @@ fn an_output_folder_that_is_a_file_is_named() {
         !result.exists(),
         "the result was written before the refusal"
     );
-    let run = calib()
-        .args(["single", &obs, "-q", "-o"])
-        .arg(&result)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["single", &obs], &result);
     let err = fails(calib().arg("report").arg(&result).arg("-o").arg(&old));
     assert!(
         err.starts_with("calib: -o ") && err.contains("not a folder"),
@@ -320,12 +320,7 @@ fn a_stereo_rig_that_cannot_be_rectified_is_exported_without_rectification() {
 
     // ROS: refused, nothing written.
     let r8 = dir.join("r8.json");
-    let run = calib()
-        .args(["stereo", &obs, "--model", "rational8", "-q", "-o"])
-        .arg(&r8)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["stereo", &obs, "--model", "rational8"], &r8);
     let ros = dir.join("ros.yaml");
     let err = fails(
         calib()
@@ -349,12 +344,7 @@ fn a_stereo_rig_that_cannot_be_rectified_is_exported_without_rectification() {
 fn rectify_writes_its_json_after_the_images() {
     let dir = scratch("rectify-order");
     let rig = dir.join("rig.json");
-    let run = calib()
-        .args(["stereo", &data("sourishg1/stereo.json"), "-q", "-o"])
-        .arg(&rig)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["stereo", &data("sourishg1/stereo.json")], &rig);
     let (rect, out) = (dir.join("rect.json"), dir.join("rectified"));
     std::fs::create_dir_all(out.join("right/right3.jpg")).unwrap();
     let rectify = |rect: &std::path::Path| {
@@ -544,12 +534,7 @@ fn a_jpeg_cut_short_is_named() {
     );
     // Undistorting it.
     let result = dir.join("left.json");
-    let run = calib()
-        .args(["single", &data("sourishg1/left.json"), "-q", "-o"])
-        .arg(&result)
-        .output()
-        .unwrap();
-    assert!(run.status.success());
+    writes(&["single", &data("sourishg1/left.json")], &result);
     let err = fails(
         calib()
             .arg("undistort")
