@@ -45,12 +45,26 @@ impl BoardArgs {
 #[command(mut_arg("board", |a| a.required(true)))]
 pub struct DetectArgs {
     /// Images (JPEG or PNG) of the left or only camera.
-    #[arg(required = true, value_name = "IMAGE")]
+    #[arg(required_unless_present = "camera_images", value_name = "IMAGE")]
     pub images: Vec<PathBuf>,
     /// Images of the right camera, paired in order with the others: writes the stereo
     /// observation file.
     #[arg(long, num_args = 1.., value_name = "IMAGE")]
     pub right: Vec<PathBuf>,
+    /// A camera's name and its images in frame order, repeated per camera (--camera left
+    /// L1.jpg ... --camera right R1.jpg ...): writes the rig observation file of `calib rig`
+    /// (frame f is every camera's f-th image).
+    #[arg(
+        long = "camera",
+        num_args = 2..,
+        action = clap::ArgAction::Append,
+        value_names = ["NAME", "IMAGE"],
+        conflicts_with_all = ["images", "right"]
+    )]
+    pub camera_images: Vec<String>,
+    /// The --camera groups, `(name, images)` (regrouped from the command line by `main`).
+    #[arg(skip)]
+    pub cameras: Vec<(String, Vec<String>)>,
     #[command(flatten)]
     pub board: BoardArgs,
     /// Observation file to write ("-" for stdout).
@@ -423,9 +437,21 @@ pub fn run(args: &DetectArgs) -> Result<(), Failure> {
             .iter()
             .chain(&args.right)
             .map(|p| p.to_str().unwrap_or(""))
+            .chain(
+                args.cameras
+                    .iter()
+                    .flat_map(|(_, p)| p.iter().map(String::as_str)),
+            )
             .collect::<Vec<_>>(),
     )?;
-    let (results, file) = if args.right.is_empty() {
+    let (results, file) = if !args.cameras.is_empty() {
+        let cameras: Vec<(String, Vec<PathBuf>)> = args
+            .cameras
+            .iter()
+            .map(|(n, p)| (n.clone(), p.iter().map(PathBuf::from).collect()))
+            .collect();
+        rig_observations(&cameras, &board, &args.board, args.threads)?
+    } else if args.right.is_empty() {
         single_observations(&args.images, &board, &args.board, args.threads)?
     } else {
         stereo_observations(&args.images, &args.right, &board, &args.board, args.threads)?

@@ -66,18 +66,22 @@ fn main() -> ExitCode {
     let matches = <Cli as clap::CommandFactory>::command().get_matches();
     let mut cli =
         <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    // clap's derive flattens repeated multi-value options: `calib rig --camera NAME IMAGE...`
-    // is regrouped per occurrence here.
-    if let (Command::Rig(args), Some(("rig", rig))) = (&mut cli.command, matches.subcommand()) {
-        args.cameras = rig
-            .get_occurrences::<String>("camera_images")
+    // clap's derive flattens repeated multi-value options: `--camera NAME IMAGE...` of calib
+    // rig and calib detect is regrouped per occurrence here.
+    let groups = |m: &clap::ArgMatches| -> Vec<(String, Vec<String>)> {
+        m.get_occurrences::<String>("camera_images")
             .into_iter()
             .flatten()
             .map(|mut group| {
                 let name = group.next().cloned().unwrap_or_default();
                 (name, group.cloned().collect())
             })
-            .collect();
+            .collect()
+    };
+    match (&mut cli.command, matches.subcommand()) {
+        (Command::Rig(args), Some(("rig", m))) => args.cameras = groups(m),
+        (Command::Detect(args), Some(("detect", m))) => args.cameras = groups(m),
+        _ => {}
     }
     interrupt::install();
     let result = match cli.command {

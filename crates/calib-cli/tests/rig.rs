@@ -597,6 +597,30 @@ fn a_rig_is_calibrated_from_photographs() {
         result["warnings"]
     );
 
+    // calib detect --camera writes the rig observation file, which calib rig reads to the same
+    // result.
+    let corners = temp("photos-rig-corners.json");
+    run_ok(
+        calib()
+            .args([
+                "detect", "-q", "--board", "9x6", "--square", "24.23", "--camera", "left",
+            ])
+            .args(&left)
+            .args(["--camera", "right"])
+            .args(&right)
+            .arg("-o")
+            .arg(&corners),
+    );
+    let from_file = temp("photos-rig-from-file.json");
+    run_ok(
+        calib()
+            .args(["rig", "-q"])
+            .arg(&corners)
+            .arg("-o")
+            .arg(&from_file),
+    );
+    assert_eq!(rms(&json(&from_file)), rms(&r));
+
     // Frames are matched in order: unequal counts are refused, naming both cameras.
     let run = calib()
         .args(["rig", "--board", "9x6", "--camera", "left"])
