@@ -411,15 +411,19 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
     for path in &paths {
         check_not_input(&path.to_string_lossy(), &[&args.input])?;
     }
-    for (path, text) in paths.iter().zip(&rendered.texts) {
-        calib_core::write_atomically(path, text.as_bytes()).map_err(|e| {
-            Failure(format!(
-                "{}: cannot write {}: {e}",
-                args.input,
-                path.display()
-            ))
-        })?;
-    }
+    // As a group: a ROS stereo pair's two files are replaced together or not at all.
+    let group: Vec<(PathBuf, &[u8])> = paths
+        .iter()
+        .cloned()
+        .zip(rendered.texts.iter().map(String::as_bytes))
+        .collect();
+    calib_core::io::write_group_atomically(&group).map_err(|(path, e)| {
+        Failure(format!(
+            "{}: cannot write {}: {e}",
+            args.input,
+            path.display()
+        ))
+    })?;
     warn(&warnings);
     if !args.quiet {
         for path in paths {
