@@ -439,8 +439,9 @@ pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
 /// absent when none has one), `frames` with the board's `object_points` and one observation
 /// (`camera`, `image` ([`image_names`] of that camera), `image_points`) per camera whose image
 /// of the frame shows the board, one frame per input index (a frame no camera saw has no
-/// observations, so that frame `f` is always the `f`-th images); `rejected_images` with `camera` (the name), `image` and `reason`;
-/// `detection_seconds_per_image` (median over all images) and `board`.
+/// observations, so that frame `f` is always the `f`-th images); `rejected_images` with
+/// `camera` (the name), `image` and `reason`; `detection_seconds_per_image` (median over all
+/// images) and `board`.
 pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Board) -> Value {
     let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
     let names: Vec<Vec<String>> = cameras.iter().map(|(_, r)| image_names(r)).collect();

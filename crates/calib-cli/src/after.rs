@@ -411,19 +411,8 @@ pub fn run_export(args: &ExportArgs) -> Result<(), Failure> {
     for path in &paths {
         check_not_input(&path.to_string_lossy(), &[&args.input])?;
     }
-    // As a group: a ROS stereo pair's two files are replaced together or not at all.
-    let group: Vec<(PathBuf, &[u8])> = paths
-        .iter()
-        .cloned()
-        .zip(rendered.texts.iter().map(String::as_bytes))
-        .collect();
-    calib_core::io::write_group_atomically(&group).map_err(|(path, e)| {
-        Failure(format!(
-            "{}: cannot write {}: {e}",
-            args.input,
-            path.display()
-        ))
-    })?;
+    calib_export::write_export(&rendered, &paths)
+        .map_err(|e| Failure(format!("{}: {e}", args.input)))?;
     warn(&warnings);
     if !args.quiet {
         for path in paths {

@@ -216,25 +216,35 @@ pub fn export_texts(
     render_export(calibration, format, options).map(|r| r.texts)
 }
 
-/// Writes `calibration` in `format` to `path` (see [`export_paths`]), each file atomically: a
-/// failure leaves any previous file in place. Returns the files written.
+/// Writes `calibration` in `format` to `path` (see [`export_paths`]; [`write_export`]): a
+/// failure leaves every previous file in place. Returns the files written. What a file leaves
+/// out ([`RenderedExport::omissions`]) is not reported here: callers that warn use
+/// [`render_export`] and [`write_export`].
 pub fn export(
     calibration: &Calibrated,
     format: Format,
     path: &Path,
     options: &ExportOptions,
 ) -> Result<Vec<PathBuf>, ExportError> {
-    let texts = export_texts(calibration, format, options)?;
+    let rendered = render_export(calibration, format, options)?;
     let paths = export_paths(calibration, format, path);
-    for (text, path) in texts.iter().zip(&paths) {
-        calib_core::write_atomically(path, text.as_bytes()).map_err(|source| {
-            ExportError::Write {
-                path: path.display().to_string(),
-                source,
-            }
-        })?;
-    }
+    write_export(&rendered, &paths)?;
     Ok(paths)
+}
+
+/// Writes a rendered export to `paths` (its [`export_paths`]) as a group
+/// ([`calib_core::io::write_group_atomically`]): a ROS stereo pair's or rig's files are replaced
+/// together, or a failure leaves every previous file as it was.
+pub fn write_export(rendered: &RenderedExport, paths: &[PathBuf]) -> Result<(), ExportError> {
+    let group: Vec<(PathBuf, &[u8])> = paths
+        .iter()
+        .cloned()
+        .zip(rendered.texts.iter().map(String::as_bytes))
+        .collect();
+    calib_core::io::write_group_atomically(&group).map_err(|(path, source)| ExportError::Write {
+        path: path.display().to_string(),
+        source,
+    })
 }
 
 /// Parses a calibration from text: a `calib single`, `calib stereo` or `calib rig` result (JSON), an OpenCV

@@ -62,7 +62,7 @@ pub use camera_model;
 pub use error::ExportError;
 pub use files::{
     ExportOptions, Format, RenderedExport, check_format_takes_model, export, export_paths,
-    export_texts, parse_calibration, read_calibration, render_export,
+    export_texts, parse_calibration, read_calibration, render_export, write_export,
 };
 pub use rectify::{Rectification, stereo_rectify};
 pub use remap::{PixelMap, remap_image};

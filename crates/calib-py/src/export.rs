@@ -391,7 +391,10 @@ fn calibrated(obj: &Bound<'_, PyAny>) -> PyResult<Calibrated> {
 /// ``calib export``. ``translation_scale``: multiplies translations (0.001 for a board in
 /// millimetres when ROS or Kalibr expect metres).
 ///
-/// Each file is written atomically. Returns the paths written (``str``). Raises
+/// The files are written atomically, as a group (a ROS stereo pair's two files together). An
+/// OpenCV stereo file whose rectification cannot be computed (a lens model that folds inside the
+/// image) holds ``M1 ... F`` without ``R1 ... Q`` and a comment why, with a ``UserWarning``.
+/// Returns the paths written (``str``). Raises
 /// :class:`CalibrationError` when the format cannot hold the calibration (e.g. a lens model
 /// Kalibr has no equivalent of), and the ``OSError`` subclass ``open(path, "w")`` raises when a
 /// file cannot be written (``FileNotFoundError`` for a missing folder, ``PermissionError``,
@@ -413,8 +416,21 @@ fn write_calibration(
     let calibrated = calibrated(calibration)?;
     let options = ExportOptions::new(alpha_option(alpha)?, translation_scale)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let written = py
-        .detach(|| calib_export::export(&calibrated, format, &path, &options))
+    let rendered = py
+        .detach(|| calib_export::render_export(&calibrated, format, &options))
+        .map_err(calibration_error)?;
+    // What a file leaves out (an OpenCV stereo file without R1..Q, said in its comment too):
+    // a UserWarning, as calib export prints a warning.
+    for omission in &rendered.omissions {
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &std::ffi::CString::new(format!("{}: {omission}", path.display())).unwrap_or_default(),
+            1,
+        )?;
+    }
+    let written = calib_export::export_paths(&calibrated, format, &path);
+    py.detach(|| calib_export::write_export(&rendered, &written))
         .map_err(|e| match &e {
             // A file that cannot be written is the OSError open(path, "w") would raise.
             ExportError::Write { path, source } => {

@@ -358,3 +358,22 @@ def test_messages_name_python_arguments_not_command_line_flags(tmp_path):
         message = str(e.value)
         assert message.endswith(python), message
         assert "--" not in message and "calib single" not in message, message
+
+
+def test_a_stereo_pair_that_cannot_be_rectified_is_written_with_a_warning(stereo, tmp_path):
+    """A stereo rig whose lens model folds inside the image (k1 = -2: not one-to-one beyond 0.41
+    of the focal length) has no rectification: the OpenCV file holds M1 ... F without R1 ... Q
+    and says why in a comment, and Python gets a UserWarning as `calib export` prints one; ROS
+    (whose stereo files are the rectification) is refused."""
+    result, size = stereo
+    folding = calib.read_calibration(result.to_json())
+    folding["D1"] = np.array([[-2.0, 0.0, 0.0, 0.0]])
+    path = tmp_path / "folding.yaml"
+    with pytest.warns(UserWarning, match="without the rectification"):
+        calib.write_calibration(path, folding, "opencv")
+    text = path.read_text()
+    assert "\nF: " in text and "\nR1: " not in text and "# " in text
+    back = calib.read_calibration(path)
+    assert np.array_equal(back["D1"], folding["D1"])
+    with pytest.raises(calib.CalibrationError, match="rectification"):
+        calib.write_calibration(tmp_path / "folding-ros.yaml", folding, "ros")

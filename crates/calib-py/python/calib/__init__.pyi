@@ -534,7 +534,8 @@ def write_calibration(
     and STEM-right.EXT; a rig: STEM-NAME.EXT per camera) or Kalibr camchain YAML, like
     ``calib export``; returns the files written. OSError (FileNotFoundError, PermissionError,
     IsADirectoryError, ...) as open(path, "w") raises it when a file cannot be written;
-    CalibrationError when the format cannot hold the calibration."""
+    CalibrationError when the format cannot hold the calibration. An OpenCV stereo file whose
+    rectification cannot be computed is written without R1 ... Q, with a UserWarning."""
 
 def read_calibration(path: Union[str, PathLike[str]]) -> CalibrationDict:
     """Reads an OpenCV, ROS or Kalibr YAML file, or a calib single / stereo / rig result JSON
