@@ -529,18 +529,21 @@ fn a_rig_is_calibrated_from_photographs() {
             .arg("-o")
             .arg(&stereo),
     );
+    // `calib COMMAND --board 9x6 --square 24.23 --camera left ... --camera right ... -o OUT`.
+    let from_photos = |command: &str, right: &[String], out: &std::path::Path| {
+        let mut c = calib();
+        c.args([
+            command, "--board", "9x6", "--square", "24.23", "--camera", "left",
+        ])
+        .args(&left)
+        .args(["--camera", "right"])
+        .args(right)
+        .arg("-o")
+        .arg(out);
+        c
+    };
     let rig = temp("photos-rig.json");
-    run_ok(
-        calib()
-            .args([
-                "rig", "-q", "--board", "9x6", "--square", "24.23", "--camera", "left",
-            ])
-            .args(&left)
-            .args(["--camera", "right"])
-            .args(&right)
-            .arg("-o")
-            .arg(&rig),
-    );
+    run_ok(from_photos("rig", &right, &rig).arg("-q"));
     let (s, r) = (json(&stereo), json(&rig));
     let rms = |v: &Value| v["rms"].as_f64().unwrap();
     assert!(
@@ -559,17 +562,7 @@ fn a_rig_is_calibrated_from_photographs() {
     let mut damaged = right.clone();
     damaged[3] = cut.to_string_lossy().into_owned();
     let out = temp("photos-rig-damaged.json");
-    let run = run_ok(
-        calib()
-            .args([
-                "rig", "--board", "9x6", "--square", "24.23", "--camera", "left",
-            ])
-            .args(&left)
-            .args(["--camera", "right"])
-            .args(&damaged)
-            .arg("-o")
-            .arg(&out),
-    );
+    let run = run_ok(&mut from_photos("rig", &damaged, &out));
     let summary = String::from_utf8_lossy(&run.stdout).into_owned();
     assert!(
         summary.contains("detected the board in 57 of 58 images"),
@@ -600,17 +593,7 @@ fn a_rig_is_calibrated_from_photographs() {
     // calib detect --camera writes the rig observation file, which calib rig reads to the same
     // result.
     let corners = temp("photos-rig-corners.json");
-    run_ok(
-        calib()
-            .args([
-                "detect", "-q", "--board", "9x6", "--square", "24.23", "--camera", "left",
-            ])
-            .args(&left)
-            .args(["--camera", "right"])
-            .args(&right)
-            .arg("-o")
-            .arg(&corners),
-    );
+    run_ok(from_photos("detect", &right, &corners).arg("-q"));
     let from_file = temp("photos-rig-from-file.json");
     run_ok(
         calib()
