@@ -497,18 +497,13 @@ fn a_jpeg_cut_short_is_named() {
     let cut = dir.join("left3.jpg");
     std::fs::write(&cut, &whole[..whole.len() / 2]).unwrap();
     let obs = dir.join("obs.json");
-    let run = calib()
-        .args(["detect", "--board", "9x6", "-q", "-o"])
-        .arg(&obs)
-        .arg(dir.join("left1.jpg"))
-        .arg(dir.join("left2.jpg"))
-        .arg(&cut)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let (left1, left2) = (dir.join("left1.jpg"), dir.join("left2.jpg"));
+    let images = [&left1, &left2, &cut].map(|p| p.to_string_lossy().into_owned());
+    writes(
+        &[
+            "detect", "--board", "9x6", &images[0], &images[1], &images[2],
+        ],
+        &obs,
     );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&obs).unwrap()).unwrap();
