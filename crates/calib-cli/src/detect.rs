@@ -284,6 +284,52 @@ pub fn single_observations(
     Ok((results, file))
 }
 
+/// The number in a file name: its stem's last run of digits, without leading zeros (`left07.jpg`
+/// -> `7`), or `None`.
+fn file_number(path: &Path) -> Option<String> {
+    let stem = path.file_stem()?.to_string_lossy().into_owned();
+    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = stem[..end]
+        .rfind(|c: char| !c.is_ascii_digit())
+        .map_or(0, |i| i + 1);
+    let digits = stem[start..end].trim_start_matches('0');
+    Some(if digits.is_empty() { "0" } else { digits }.to_string())
+}
+
+/// Refuses images matched in order whose file numbers show the order is off: when every image
+/// has a number in its name and the cameras' numbers agree in some frames (`left3.jpg` with
+/// `right3.jpg`) but not in others (`left8.jpg` with `right9.jpg`: an image missing from one
+/// camera and another extra, or the lists sorted differently). Names numbered independently
+/// (timestamps, or one camera counting from 0 and another from 1) never agree, and are not
+/// checked.
+fn check_frame_numbers(cameras: &[(&str, &[PathBuf])], what: &str) -> Result<(), Failure> {
+    let numbers: Option<Vec<Vec<String>>> = cameras
+        .iter()
+        .map(|(_, paths)| paths.iter().map(|p| file_number(p)).collect())
+        .collect();
+    let Some(numbers) = numbers else {
+        return Ok(());
+    };
+    let frames = numbers.iter().map(Vec::len).min().unwrap_or(0);
+    let agree = |f: usize| numbers.iter().all(|n| n[f] == numbers[0][f]);
+    let Some(good) = (0..frames).find(|&f| agree(f)) else {
+        return Ok(());
+    };
+    match (0..frames).find(|&f| !agree(f)) {
+        None => Ok(()),
+        Some(f) => {
+            let listed: Vec<String> = cameras
+                .iter()
+                .map(|(name, paths)| format!("{name} {}", paths[f].display()))
+                .collect();
+            Err(Failure(format!(
+                "{what} {f} matches {} by their order, but their file numbers differ while those of {what} {good} agree: is an image missing from one camera (or the lists sorted differently)? {what}s are matched in order; give every camera's images in the same order, one per {what}",
+                listed.join(" with ")
+            )))
+        }
+    }
+}
+
 /// Detects the board in paired images and returns the stereo observation file; fails when no
 /// pair has the board in both images. Overlays go to `DIR/left/` and `DIR/right/`.
 pub fn stereo_observations(
@@ -300,6 +346,7 @@ pub fn stereo_observations(
             right.len()
         )));
     }
+    check_frame_numbers(&[("left", left), ("right", right)], "pair")?;
     let overlays = args
         .draw
         .as_ref()
@@ -339,6 +386,7 @@ pub fn rig_observations(
         .iter()
         .map(|(n, p)| (n.as_str(), p.as_slice()))
         .collect();
+    check_frame_numbers(&named, "frame")?;
     let overlays = args.draw.as_ref().map(|dir| overlay_paths(dir, &named));
     if let Some(overlays) = &overlays {
         let outs: Vec<&[PathBuf]> = overlays.iter().map(Vec::as_slice).collect();

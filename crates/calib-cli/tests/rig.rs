@@ -618,6 +618,33 @@ fn a_rig_is_calibrated_from_photographs() {
         message.contains("camera 'right' has 28 images but camera 'left' has 29"),
         "{message}"
     );
+    // Two right images in the wrong order (frame 3 would pair left4.jpg with right5.jpg): their
+    // file numbers show it, while the other frames' numbers agree; calib stereo checks its pairs
+    // alike.
+    let mut swapped = right.clone();
+    swapped.swap(3, 4);
+    let out = temp("photos-rig-swapped.json");
+    let run = from_photos("rig", &swapped, &out).output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        message.contains("frame 3 matches left ")
+            && message.contains("right5.jpg by their order, but their file numbers differ"),
+        "{message}"
+    );
+    let run = calib()
+        .args(["stereo", "--board", "9x6"])
+        .args(&left)
+        .arg("--right")
+        .args(&swapped)
+        .output()
+        .unwrap();
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("pair 3 matches left "),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+
     // --camera without --board, and a file with --camera, are explained.
     let run = calib()
         .args(["rig", "--camera", "left"])
