@@ -16,8 +16,8 @@
 #   -h, --help          this text
 set -euo pipefail
 
-usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
-die() { echo "run.sh: error: $*" >&2; exit 2; }
+# shellcheck source=../script_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../script_common.sh"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"
@@ -109,4 +109,4 @@ for set in sourishg1 sourishg2; do
 done
 
 # 4. Report.
-"$PY" "$HERE/report.py" --out "$OUT" --calib "$CALIB" --command "benches/detect/run.sh ${ORIG_ARGS[*]:-}" | tee "$OUT/results.md"
+"$PY" "$HERE/report.py" --out "$OUT" --calib "$CALIB" --command "$(command_line benches/detect/run.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")" | tee "$OUT/results.md"

@@ -24,8 +24,8 @@
 set -euo pipefail
 
 ORIG_ARGS=("$@")
-usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
-die() { echo "run.sh: error: $*" >&2; exit 2; }
+# shellcheck source=../script_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../script_common.sh"
 
 REFERENCE=0
 REPEATS=5
@@ -56,8 +56,7 @@ done
 [[ "$PINHOLE_FXS" =~ ^[0-9]+(\.[0-9]+)?(,[0-9]+(\.[0-9]+)?)*$ ]] || die "--pinhole-fx must be a comma-separated list of numbers"
 if [[ -n "$CALIB" && "$CALIB" != /* ]]; then CALIB="$PWD/$CALIB"; fi
 
-COMMAND="benches/models/run.sh"
-for a in "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}"; do COMMAND+=" $(printf '%q' "$a")"; done
+COMMAND="$(command_line benches/models/run.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"

@@ -22,8 +22,8 @@
 set -euo pipefail
 
 ORIG_ARGS=("$@")
-usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
-die() { echo "run.sh: error: $*" >&2; exit 2; }
+# shellcheck source=../script_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../script_common.sh"
 
 REPEATS=10
 MODELS_ARG="brown-conrady4,brown-conrady5,rational8"
@@ -55,8 +55,7 @@ for m in "${MODELS[@]}"; do
 done
 if [[ -n "$CALIB" && "$CALIB" != /* ]]; then CALIB="$PWD/$CALIB"; fi
 
-COMMAND="benches/mrcal/run.sh"
-for a in "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}"; do COMMAND+=" $(printf '%q' "$a")"; done
+COMMAND="$(command_line benches/mrcal/run.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"

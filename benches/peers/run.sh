@@ -18,8 +18,8 @@
 set -euo pipefail
 
 ORIG_ARGS=("$@")
-usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
-die() { echo "run.sh: error: $*" >&2; exit 2; }
+# shellcheck source=../script_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../script_common.sh"
 
 QUICK=0
 REPEATS=""
@@ -61,8 +61,7 @@ if [[ -n "$CALIB" ]]; then
     [[ "$CALIB" = /* ]] || CALIB="$PWD/$CALIB"   # relative to the caller's directory
 fi
 
-COMMAND="benches/peers/run.sh"
-for a in "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}"; do COMMAND+=" $(printf '%q' "$a")"; done
+COMMAND="$(command_line benches/peers/run.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"

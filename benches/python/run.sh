@@ -9,6 +9,8 @@
 # installs ./crates/calib-py into it (a release build; cargo's target directory is
 # $CARGO_TARGET_DIR or target/), unless --no-install, then runs compare_cv2.py.
 set -euo pipefail
+# shellcheck source=../script_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../script_common.sh"
 
 ORIG_ARGS=("$@")
 INSTALL=1
@@ -22,8 +24,7 @@ while [[ $# -gt 0 ]]; do
     esac
     shift
 done
-COMMAND="benches/python/run.sh"
-for a in "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}"; do COMMAND+=" $(printf '%q' "$a")"; done
+COMMAND="$(command_line benches/python/run.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")"
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 cd "$ROOT"
