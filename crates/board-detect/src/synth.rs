@@ -1,11 +1,14 @@
 //! Synthetic chessboard images with exactly known corners, for tests and benchmarks.
 //!
-//! A board is rendered through a pinhole camera with radial distortion by area integration:
+//! A board is rendered through a camera with a chosen [`Lens`] (pinhole with radial distortion,
+//! OpenCV's rational radial model, or a Kannala-Brandt fisheye, up to and beyond 180 degrees
+//! of field of view) by area integration:
 //! every pixel whose footprint may straddle a square edge is supersampled on a 12x12 grid, so
 //! the image is the integral of the ideal board over the pixel to within 1/144 of a pixel's
 //! area. The ideal board is then multiplied by a lighting gain field, blurred with a Gaussian
 //! (optics), and Gaussian noise is added before quantization to 8 bits. The true corners are
-//! the exact projections of the board corners.
+//! the exact projections of the board corners. Pixels whose ray leaves the lens's valid range
+//! (beyond a fold of the radial map, or the fisheye's largest angle) show the background.
 //!
 //! Conventions: board corner `(c, r)` is at `(c * square, r * square, 0)` in the board frame;
 //! the square whose corners are `(c, r)` and `(c + 1, r + 1)` is dark when `c + r` is even
@@ -34,6 +37,11 @@ pub struct Scene {
     pub k1: f64,
     /// Radial distortion `k2`.
     pub k2: f64,
+    /// The lens; [`Lens::Radial`] (the default) uses `k1` and `k2` above.
+    pub lens: Lens,
+    /// Vignetting: the lighting gain is also multiplied by `1 - vignetting * (d / d_max)^2`,
+    /// `d` the distance from the principal point, `d_max` that of the farthest image corner.
+    pub vignetting: f64,
     /// Board-to-camera rotation as an axis-angle vector (radians).
     pub rotation: [f64; 3],
     /// Board-to-camera translation, in board units.
@@ -78,6 +86,8 @@ impl Default for Scene {
             cy: 239.5,
             k1: -0.15,
             k2: 0.05,
+            lens: Lens::Radial,
+            vignetting: 0.0,
             rotation: [0.2, -0.3, 0.1],
             translation: [-3.5, -2.0, 14.0],
             cols: 9,
@@ -111,16 +121,13 @@ impl Scene {
         Rotation3::from_scaled_axis(Vector3::from(self.rotation)).into_inner()
     }
 
-    /// Projects a board point `(x, y, 0)` to pixels (with distortion). `None` behind the camera.
+    /// Projects a board point `(x, y, 0)` to pixels (with distortion). `None` when the point
+    /// is outside the lens's valid range (behind a pinhole camera, beyond the radial map's
+    /// first fold, beyond the largest angle of a fisheye).
     pub fn project(&self, x: f64, y: f64) -> Option<[f64; 2]> {
         let p = self.rotation() * Vector3::new(x, y, 0.0) + Vector3::from(self.translation);
-        if p.z <= 1e-9 {
-            return None;
-        }
-        let (a, b) = (p.x / p.z, p.y / p.z);
-        let r2 = a * a + b * b;
-        let d = 1.0 + self.k1 * r2 + self.k2 * r2 * r2;
-        Some([self.fx * a * d + self.cx, self.fy * b * d + self.cy])
+        let [a, b] = LensMap::new(self).distort(p)?;
+        Some([self.fx * a + self.cx, self.fy * b + self.cy])
     }
 
     /// Renders the image.
@@ -128,33 +135,24 @@ impl Scene {
         let (w, h) = (self.width, self.height);
         let rot = self.rotation();
         let t = Vector3::from(self.translation);
-        // Plane-to-normalized-image homography and its inverse (for pixel -> board point).
-        let hm =
-            Matrix3::from_columns(&[rot.column(0).into_owned(), rot.column(1).into_owned(), t]);
-        let hinv = hm.try_inverse().unwrap_or_else(Matrix3::identity);
-        let (k1, k2) = (self.k1, self.k2);
+        let lens = LensMap::new(self);
+        let normal = rot.column(2).into_owned();
+        let plane_d = normal.dot(&t);
         let albedo = |u: f64, v: f64| -> f64 {
-            // Undistort by fixed-point iteration, then intersect the plane.
-            let xd = (u - self.cx) / self.fx;
-            let yd = (v - self.cy) / self.fy;
-            let (mut x, mut y) = (xd, yd);
-            for _ in 0..10 {
-                let r2 = x * x + y * y;
-                let d = 1.0 + k1 * r2 + k2 * r2 * r2;
-                x = xd / d;
-                y = yd / d;
-            }
-            let q = hinv * Vector3::new(x, y, 1.0);
-            if q.z.abs() < 1e-12 {
+            // The pixel's ray, intersected with the board plane in front of the camera.
+            let Some(ray) = lens.undistort((u - self.cx) / self.fx, (v - self.cy) / self.fy) else {
+                return self.background;
+            };
+            let den = normal.dot(&ray);
+            if den.abs() < 1e-12 {
                 return self.background;
             }
-            // The plane point must be in front of the camera.
-            let bx = q.x / q.z;
-            let by = q.y / q.z;
-            let depth = (rot * Vector3::new(bx, by, 0.0) + t).z;
-            if depth <= 0.0 {
+            let s = plane_d / den;
+            if !(s > 0.0 && s.is_finite()) {
                 return self.background;
             }
+            let q = rot.transpose() * (ray * s - t);
+            let (bx, by) = (q.x, q.y);
             let (sx, sy) = (bx / self.square, by / self.square);
             let (lo_x, hi_x) = (-1.0 - self.margin, self.cols as f64 + self.margin);
             let (lo_y, hi_y) = (-1.0 - self.margin, self.rows as f64 + self.margin);
@@ -211,11 +209,22 @@ impl Scene {
             }
         }
         // Lighting.
+        let d_max2 = [
+            (0.0, 0.0),
+            (w as f64, 0.0),
+            (0.0, h as f64),
+            (w as f64, h as f64),
+        ]
+        .iter()
+        .map(|&(x, y)| (x - 0.5 - self.cx).powi(2) + (y - 0.5 - self.cy).powi(2))
+        .fold(1.0, f64::max);
         for y in 0..h {
             for x in 0..w {
-                let g = self.gain_left
+                let d2 = (x as f64 - self.cx).powi(2) + (y as f64 - self.cy).powi(2);
+                let g = (self.gain_left
                     + (self.gain_right - self.gain_left) * x as f64 / w as f64
-                    + self.gain_vertical * (y as f64 / h as f64 - 0.5);
+                    + self.gain_vertical * (y as f64 / h as f64 - 0.5))
+                    * (1.0 - self.vignetting * d2 / d_max2);
                 img[y * w + x] *= g;
             }
         }
@@ -237,6 +246,180 @@ impl Scene {
             })
             .collect();
         Rendered { pixels, corners }
+    }
+}
+
+/// The lens of a [`Scene`]: how a ray in the camera frame becomes a normalized image point
+/// (multiplied by the focal lengths and shifted by the principal point to give pixels).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lens {
+    /// Pinhole with OpenCV's radial distortion `1 + k1 r^2 + k2 r^4`, the scene's `k1`, `k2`.
+    Radial,
+    /// Pinhole with OpenCV's rational radial distortion
+    /// `(1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)`, coefficients
+    /// `[k1, k2, k3, k4, k5, k6]` (`rational8` without tangential terms; `brown-conrady5`'s
+    /// radial part with `k4 = k5 = k6 = 0`). The scene's `k1`, `k2` are not used.
+    Rational([f64; 6]),
+    /// Kannala-Brandt fisheye (`cv2.fisheye`, `kannala-brandt4`): a ray at angle `theta` from
+    /// the optical axis lands at radius `theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 +
+    /// k4 theta^8)` in normalized units; all zero is the equidistant lens. Rays up to the
+    /// first fold of that map, and below 180 degrees from the axis, are imaged (a field of view
+    /// above 180 degrees is allowed).
+    KannalaBrandt([f64; 4]),
+}
+
+/// The radial map of a [`Lens`], `rd = g(ru)` (`ru` the pinhole radius, or the angle `theta`
+/// for the fisheye), with its valid range precomputed.
+struct LensMap {
+    fisheye: bool,
+    /// [`Lens::Radial`]: undistorted by fixed-point iteration.
+    radial: bool,
+    /// Numerator (`k[0..3]`) and denominator (`k[3..6]`) coefficients in `ru^2`.
+    k: [f64; 6],
+    /// Largest `ru` imaged: the first fold of `g`, or `pi` for the fisheye.
+    u_max: f64,
+    /// `g(u_max)`.
+    d_max: f64,
+}
+
+impl LensMap {
+    fn new(scene: &Scene) -> Self {
+        let (fisheye, k) = match scene.lens {
+            Lens::Radial => (false, [scene.k1, scene.k2, 0.0, 0.0, 0.0, 0.0]),
+            Lens::Rational(k) => (false, k),
+            Lens::KannalaBrandt(k) => (true, [k[0], k[1], k[2], k[3], 0.0, 0.0]),
+        };
+        let mut m = Self {
+            fisheye,
+            radial: scene.lens == Lens::Radial,
+            k,
+            u_max: 0.0,
+            d_max: 0.0,
+        };
+        // The first fold: walk out in small steps until g stops increasing.
+        let limit = if fisheye {
+            std::f64::consts::PI - 1e-9
+        } else {
+            1e3
+        };
+        let mut u = 0.0;
+        let mut g = 0.0;
+        let mut step = 1e-3;
+        while u < limit {
+            let next = (u + step).min(limit);
+            let gn = m.g(next);
+            if gn.is_nan() || gn <= g {
+                break;
+            }
+            u = next;
+            g = gn;
+            if u > 1.0 {
+                step = 1e-3 * u;
+            }
+        }
+        m.u_max = u;
+        m.d_max = g;
+        m
+    }
+
+    fn g(&self, u: f64) -> f64 {
+        let k = &self.k;
+        let t = u * u;
+        if self.fisheye {
+            u * (1.0 + t * (k[0] + t * (k[1] + t * (k[2] + t * k[3]))))
+        } else {
+            let num = 1.0 + t * (k[0] + t * (k[1] + t * k[2]));
+            let den = 1.0 + t * (k[3] + t * (k[4] + t * k[5]));
+            u * num / den
+        }
+    }
+
+    /// Derivative of [`LensMap::g`].
+    fn dg(&self, u: f64) -> f64 {
+        let k = &self.k;
+        let t = u * u;
+        if self.fisheye {
+            1.0 + t * (3.0 * k[0] + t * (5.0 * k[1] + t * (7.0 * k[2] + t * 9.0 * k[3])))
+        } else {
+            let num = 1.0 + t * (k[0] + t * (k[1] + t * k[2]));
+            let den = 1.0 + t * (k[3] + t * (k[4] + t * k[5]));
+            let dnum = k[0] + t * (2.0 * k[1] + t * 3.0 * k[2]);
+            let dden = k[3] + t * (2.0 * k[4] + t * 3.0 * k[5]);
+            num / den + 2.0 * t * (dnum * den - num * dden) / (den * den)
+        }
+    }
+
+    /// Normalized distorted point of a camera-frame point.
+    fn distort(&self, p: Vector3<f64>) -> Option<[f64; 2]> {
+        let rxy = p.x.hypot(p.y);
+        let u = if self.fisheye {
+            rxy.atan2(p.z)
+        } else {
+            if p.z <= 1e-9 {
+                return None;
+            }
+            rxy / p.z
+        };
+        if u > self.u_max {
+            return None;
+        }
+        if rxy < 1e-300 {
+            return Some([0.0, 0.0]);
+        }
+        let d = self.g(u) / rxy;
+        Some([p.x * d, p.y * d])
+    }
+
+    /// Ray direction of a normalized distorted point; `None` outside the imaged range.
+    fn undistort(&self, xd: f64, yd: f64) -> Option<Vector3<f64>> {
+        let rd = xd.hypot(yd);
+        if rd >= self.d_max {
+            return None;
+        }
+        if rd < 1e-300 {
+            return Some(Vector3::new(0.0, 0.0, 1.0));
+        }
+        if self.radial {
+            // Mild radial distortion: the fixed-point iteration (fast, and the images of
+            // `Lens::Radial` scenes stay what they were before the other lenses).
+            let (k1, k2) = (self.k[0], self.k[1]);
+            let (mut x, mut y) = (xd, yd);
+            for _ in 0..10 {
+                let r2 = x * x + y * y;
+                let d = 1.0 + k1 * r2 + k2 * r2 * r2;
+                x = xd / d;
+                y = yd / d;
+            }
+            return Some(Vector3::new(x, y, 1.0));
+        }
+        // g is increasing on [0, u_max]: safeguarded Newton (bisection bracket).
+        let (mut lo, mut hi) = (0.0, self.u_max);
+        let mut u = rd.min(self.u_max);
+        for _ in 0..60 {
+            let f = self.g(u) - rd;
+            if f > 0.0 {
+                hi = u;
+            } else {
+                lo = u;
+            }
+            let df = self.dg(u);
+            let mut next = u - f / df;
+            if !(next > lo && next < hi) {
+                next = 0.5 * (lo + hi);
+            }
+            if (next - u).abs() < 1e-13 * u.max(1e-3) {
+                u = next;
+                break;
+            }
+            u = next;
+        }
+        let (cx, cy) = (xd / rd, yd / rd);
+        Some(if self.fisheye {
+            let (s, c) = u.sin_cos();
+            Vector3::new(s * cx, s * cy, c)
+        } else {
+            Vector3::new(u * cx, u * cy, 1.0)
+        })
     }
 }
 
