@@ -48,12 +48,27 @@ pub(crate) fn run(
     let mut best_err = DetectError::NoBoard;
     let mut best_count = 0usize;
     let mut levels: Vec<(usize, ImageF)> = Vec::new();
-    for level in &opts.search_levels {
-        let ff = f * level.downscale.max(1);
-        if (w / ff).min(h / ff) < level.min_side.max(MIN_SIDE) {
-            continue;
+    // Attempts: (total downscale, blur). The configured levels, then, when the image was
+    // downscaled for the search, one more at a finer scale (a pixel budget four times
+    // larger, at most 4x the time of a full search level): squares of 3-8 px, which the
+    // downscaled search image shrinks below its reach, are found there.
+    let mut attempts: Vec<(usize, f64)> = opts
+        .search_levels
+        .iter()
+        .map(|level| (f * level.downscale.max(1), level.blur, level.min_side))
+        .filter(|&(ff, _, min_side)| (w / ff).min(h / ff) >= min_side.max(MIN_SIDE))
+        .map(|(ff, blur, _)| (ff, blur))
+        .collect();
+    if f > 1 {
+        let mut fine = 1usize;
+        while ((w / fine) as u64) * ((h / fine) as u64) > 4 * opts.search_max_pixels.max(1024) {
+            fine += 1;
         }
-        let sigma = level.blur;
+        if fine < f {
+            attempts.push((fine, 1.0));
+        }
+    }
+    for (ff, sigma) in attempts {
         // Search images are made once per scale and only when a level needs them.
         let idx = match levels.iter().position(|(k, _)| *k == ff) {
             Some(i) => i,

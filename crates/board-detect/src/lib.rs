@@ -171,7 +171,10 @@ pub struct DetectOptions {
     pub max_pixels: u64,
     /// The grid search runs on a copy downscaled by the smallest integer factor that brings
     /// it to at most this many pixels (refinement always uses full resolution). Default 2
-    /// million, so search time is bounded whatever the image size.
+    /// million, so search time is bounded whatever the image size. When that downscale was
+    /// needed and no level found the board, one more search runs on a copy of at most four
+    /// times this many pixels (blur 1 px), for boards whose squares the first copy shrinks
+    /// below about 4 px.
     pub search_max_pixels: u64,
     /// Search attempts, tried in turn until one finds the board. Coarse levels first: they
     /// are cheap and find boards with large squares; finer ones find small squares.

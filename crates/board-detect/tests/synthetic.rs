@@ -181,3 +181,72 @@ fn wrong_board_size_is_reported() {
         other => panic!("expected SizeMismatch, got {other:?}"),
     }
 }
+
+/// A board filling much of a 190-degree fisheye's edge (Kannala-Brandt, the pose of a
+/// `lens_eval kb-border` image): its rows curve so much that the straight line through two
+/// neighbours misses a corner by up to 0.31 of a square, which the verification refused as
+/// `InconsistentGrid` before it followed the rows' curves. Every corner must be labelled
+/// right and accurate: blur 0.9 and noise 2.5 give 0.02-0.04 px RMS on such boards (`lens_eval
+/// kb-border`: median 0.018, 95th percentile 0.041, max 0.085 px over 40 views), so 0.06 px
+/// RMS and 0.2 px max leave room for the seed while a wrong label is off by a square (13 px).
+#[test]
+fn fisheye_board_with_curved_rows_near_the_border() {
+    use board_detect::synth::Lens;
+    let (cols, rows) = (8, 6);
+    let scene = Scene {
+        width: 960,
+        height: 720,
+        fx: 270.5,
+        fy: 268.2,
+        cx: 474.8,
+        cy: 357.5,
+        lens: Lens::KannalaBrandt([-0.0054, -0.0015, 0.0, 0.0]),
+        vignetting: 0.3,
+        rotation: [0.0281, 0.0282, 0.4611],
+        translation: [2.881, -4.214, 2.824],
+        cols,
+        rows,
+        blur: 0.9,
+        noise: 2.5,
+        ..Scene::default()
+    };
+    let (det, truth) = run(&scene);
+    let det = det.unwrap_or_else(|e| panic!("{cols}x{rows}: {e}"));
+    let rms = rms_error(&det.corners, &truth);
+    let max = max_error(&det.corners, &truth);
+    assert!(rms < 0.06, "{cols}x{rows}: RMS corner error {rms:.4} px");
+    assert!(max < 0.2, "{cols}x{rows}: max corner error {max:.4} px");
+}
+
+/// Squares of about 5 px in an image larger than the search's pixel budget: the downscaled
+/// search copy shrinks them to 2.5 px, below what the saddle search resolves, and the board
+/// was reported missing (`NoBoard`); the finer search that follows (four times the budget)
+/// finds it. The budget is lowered here so that a 640x480 image stands for a 5-megapixel one
+/// with the default budget (same factor 2). Accuracy: small squares give 0.02-0.1 px
+/// (`lens_eval small-large`); a wrong label is off by 5 px.
+#[test]
+fn small_squares_in_an_image_above_the_search_budget() {
+    let scene = Scene {
+        fx: 1000.0,
+        fy: 1000.0,
+        k1: 0.0,
+        k2: 0.0,
+        rotation: [0.3, -0.2, 0.2],
+        translation: [-4.0, -3.0, 200.0],
+        blur: 0.7,
+        noise: 1.5,
+        ..Scene::default()
+    };
+    let r = scene.render();
+    let board = Board::new(scene.cols, scene.rows, scene.square).unwrap();
+    let view = GrayView::packed(&r.pixels, scene.width, scene.height).unwrap();
+    let opts = DetectOptions {
+        search_max_pixels: 100_000,
+        ..DetectOptions::default()
+    };
+    let spacing = (r.corners[1][0] - r.corners[0][0]).hypot(r.corners[1][1] - r.corners[0][1]);
+    assert!((4.0..6.0).contains(&spacing), "spacing {spacing:.2} px");
+    let det = detect(&view, &board, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let max = max_error(&det.corners, &r.corners);
+    assert!(max < 0.3, "max corner error {max:.4} px");
+}
