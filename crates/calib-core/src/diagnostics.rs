@@ -448,6 +448,13 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                 ),
             ));
         }
+        let std = &solution.camera_std[c];
+        // The principal point is free and poorly determined (the warning below): a long lens
+        // (narrow field of view), whose views cannot fix it.
+        let pp_poor = pp_free
+            && std.len() >= 4
+            && (3.0 * std[2] > POOR_RELATIVE_UNCERTAINTY * w
+                || 3.0 * std[3] > POOR_RELATIVE_UNCERTAINTY * h);
         if let Some(cov) = &solution.camera_covariance[c] {
             let names = spec.param_names();
             let free: Vec<usize> = (0..names.len())
@@ -535,6 +542,23 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                     advice
                 } else if distortion_loose && !model_is_linear_in_distortion(camera.model) {
                     format!("{understate}; {simpler}")
+                } else if distortion_loose && pp_poor {
+                    // The pixel is linear in the coefficients but not in the principal point,
+                    // which moves the centre of the distortion: with both loose the cost is
+                    // curved along their trade-off (measured on long lenses, fields of view of
+                    // 2 to 15 degrees, brown-conrady4 with k2 loose: cx, cy and k1 spread 1.2 to
+                    // 1.6 times their sigmas; holding the principal point or k2 brings them
+                    // within 0.9 to 1.2; `docs/calib-single.md`, section 6).
+                    // In a rig, holding the principal point at the image centre is no remedy:
+                    // the transforms absorb its offset (see the principal point's warning).
+                    let hold = if several {
+                        ""
+                    } else {
+                        "hold the principal point (--fix-principal-point; Python: fix=['principal_point']), or "
+                    };
+                    format!(
+                        "with the principal point poorly determined too, {understate} (cx, cy and the distortion); {hold}{simpler}"
+                    )
                 } else {
                     // The pixel is linear in these coefficients: along their trade-off the cost
                     // is exactly quadratic and the linearized sigmas hold (measured: every
@@ -556,7 +580,6 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                 ));
             }
         }
-        let std = &solution.camera_std[c];
         if std.iter().any(|&s| s > 0.0) {
             let mut poor = Vec::new();
             for (i, (name, value, scale)) in [
@@ -573,10 +596,34 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                 }
             }
             if !poor.is_empty() {
+                // A loose principal point: with a long lens no capture determines it (the
+                // board's perspective is too weak), and the pose absorbs a shift of it; holding
+                // it at the image centre leaves the focal lengths' and the distortion's sigmas
+                // honest (measured: fields of view of 2 to 15 degrees, principal point up to 5%
+                // of the width off-centre, z RMS of fx, fy, k1 0.92 to 1.2).
+                let hold = if pp_poor && several {
+                    // Measured: a converging telephoto pair (fx 20000, principal points 25 px
+                    // off-centre) held at the centres had the rig's rotation 220 sigmas off.
+                    " (holding it at the image centre is no remedy here: the rig's rotation would absorb its offset, offset / fx radians, unseen by the sigmas)".to_string()
+                } else if pp_poor {
+                    let lens = if camera.model.is_fisheye() {
+                        "a long lens".to_string()
+                    } else {
+                        format!(
+                            "a long lens: the horizontal field of view here is {:.1} degrees",
+                            2.0 * (w / (2.0 * k.fx.abs())).atan().to_degrees()
+                        )
+                    };
+                    format!(
+                        ", or, when no capture can determine it ({lens}), hold it at the image centre (--fix-principal-point; Python: fix=['principal_point']; the board poses then absorb its offset)"
+                    )
+                } else {
+                    String::new()
+                };
                 warnings.push(Warning::new(
                     WarningCode::PoorlyDetermined,
                     format!(
-                        "{who}{} (3 sigma) {} poorly determined: add views with the board tilted in different directions and covering the whole image",
+                        "{who}{} (3 sigma) {} poorly determined: add views with the board tilted in different directions and covering the whole image{hold}",
                         poor.join(", "),
                         if poor.len() > 1 { "are" } else { "is" }
                     ),
