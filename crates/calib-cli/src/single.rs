@@ -48,10 +48,10 @@ pub struct CameraArgs {
     #[arg(long, value_name = "NAMES", value_parser = coefficient_names_lowercase)]
     pub fix: Vec<String>,
     /// Start from these intrinsics instead of the closed-form guess: fx,fy,cx,cy (pixels).
-    #[arg(long, value_name = "FX,FY,CX,CY")]
+    #[arg(long, value_name = "FX,FY,CX,CY", allow_hyphen_values = true)]
     pub guess: Option<String>,
     /// Initial distortion coefficients in the model's order, e.g. k1,k2,p1,p2 (default zero).
-    #[arg(long, value_name = "K1,K2,...")]
+    #[arg(long, value_name = "K1,K2,...", allow_hyphen_values = true)]
     pub distortion_guess: Option<String>,
     /// Rotation parameterization of the poses during the optimization [default: euler for
     /// calib single; so3 for calib stereo and calib rig, whose cameras may face any direction].

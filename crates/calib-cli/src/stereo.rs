@@ -41,10 +41,10 @@ pub struct StereoArgs {
     #[arg(long, value_name = "MODEL")]
     pub right_model: Option<String>,
     /// Initial intrinsics of the left camera: fx,fy,cx,cy.
-    #[arg(long, value_name = "FX,FY,CX,CY")]
+    #[arg(long, value_name = "FX,FY,CX,CY", allow_hyphen_values = true)]
     pub left_guess: Option<String>,
     /// Initial intrinsics of the right camera: fx,fy,cx,cy.
-    #[arg(long, value_name = "FX,FY,CX,CY")]
+    #[arg(long, value_name = "FX,FY,CX,CY", allow_hyphen_values = true)]
     pub right_guess: Option<String>,
     /// Start the left camera from a single camera's calibration file (any format; see
     /// --intrinsics).
@@ -65,7 +65,7 @@ pub struct StereoArgs {
     #[arg(long)]
     pub same_focal_length: bool,
     /// Initial rig: rotation vector and translation rx,ry,rz,tx,ty,tz (X_right = R X_left + T).
-    #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ")]
+    #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ", allow_hyphen_values = true)]
     pub rig_guess: Option<String>,
     /// How the initial rig is computed from the single-camera poses.
     #[arg(long, value_enum, default_value_t = RigMethod::LeastSquares)]

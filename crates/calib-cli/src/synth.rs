@@ -60,14 +60,14 @@ pub struct SynthStereoArgs {
     #[command(flatten)]
     pub left: SynthArgs,
     /// True right intrinsics fx,fy,cx,cy (default 810,805,325,235).
-    #[arg(long, value_name = "FX,FY,CX,CY")]
+    #[arg(long, value_name = "FX,FY,CX,CY", allow_hyphen_values = true)]
     pub right_intrinsics: Option<String>,
     /// Lens model of the right camera (default: the left camera's).
     #[arg(long, value_name = "MODEL")]
     pub right_model: Option<String>,
     /// True right distortion in the model's order (default for brown-conrady4:
     /// -0.18,0.04,-0.0005,0.0008; see --distortion for the other models).
-    #[arg(long, value_name = "K1,K2,...")]
+    #[arg(long, value_name = "K1,K2,...", allow_hyphen_values = true)]
     pub right_distortion: Option<String>,
     /// Right image size WIDTHxHEIGHT (default: the left one).
     #[arg(long)]
@@ -75,7 +75,7 @@ pub struct SynthStereoArgs {
     /// True rig: rotation vector and translation rx,ry,rz,tx,ty,tz (X_right = R X_left + T; board
     /// units). Default: a 4-square baseline (100 for the default 25 mm squares) and a 1.3 degree
     /// rotation.
-    #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ")]
+    #[arg(long, value_name = "RX,RY,RZ,TX,TY,TZ", allow_hyphen_values = true)]
     pub rig: Option<String>,
 }
 
@@ -107,7 +107,7 @@ pub struct SynthArgs {
     #[arg(long, default_value = "640x480")]
     pub image: String,
     /// True intrinsics fx,fy,cx,cy (default: 800,800 and the image centre).
-    #[arg(long, value_name = "FX,FY,CX,CY")]
+    #[arg(long, value_name = "FX,FY,CX,CY", allow_hyphen_values = true)]
     pub intrinsics: Option<String>,
     /// True lens model (see `calib single --help`).
     #[arg(long, default_value = "brown-conrady4", value_name = "MODEL")]
@@ -115,7 +115,7 @@ pub struct SynthArgs {
     /// True distortion in the model's order. Defaults: brown-conrady4 -0.2,0.05,0.001,-0.0005;
     /// brown-conrady5 adds k3 = 0.02; rational8 adds k3..k6 = 0.02,0.1,0.01,0.002; thin-prism12
     /// adds s1..s4 = 0.001,-0.0005,0.0008,0.0002; kannala-brandt4 0.05,-0.01,0.003,-0.0005.
-    #[arg(long, value_name = "K1,K2,...")]
+    #[arg(long, value_name = "K1,K2,...", allow_hyphen_values = true)]
     pub distortion: Option<String>,
 }
 

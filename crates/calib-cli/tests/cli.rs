@@ -1434,3 +1434,38 @@ fn photographs_of_mixed_cameras_names_and_failures() {
     );
     assert_eq!(result["rejected_pairs"][0]["left_image"], "left6.jpg");
 }
+
+/// Lists of numbers that start with a minus sign are values, not options: `--distortion-guess
+/// -0.1,0,0,0` (a telephoto lens' pincushion or a barrel lens' k1) was refused with "unexpected
+/// argument '-0' found" and only `--distortion-guess=-0.1,...` worked.
+#[test]
+fn negative_lists_of_numbers_are_values() {
+    let left = data("sourishg1/left.json");
+    let out = run_ok(calib().args([
+        "single",
+        "-q",
+        &left,
+        "--guess",
+        "463,463,314,187",
+        "--distortion-guess",
+        "-0.1,0,0,0",
+        "-o",
+        "-",
+    ]));
+    let result: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(result["initial"]["method"], "given");
+    let synth = temp("negative-lists.json");
+    run_ok(
+        calib()
+            .args(["synth", "stereo", "--distortion", "-0.1,0,0,0"])
+            .args(["--right-distortion", "-0.1,0,0,0", "--views", "4"])
+            .args(["--rig", "-0.01,0,0,-100,0,0", "-o"])
+            .arg(&synth),
+    );
+    // A missing value is still reported, naming the option and what it took.
+    let err = refused(&["single", &left, "--guess", "--fix-aspect-ratio"]);
+    assert!(
+        err.contains("--guess: expected 4 comma-separated numbers, got 1 in '--fix-aspect-ratio'"),
+        "{err}"
+    );
+}
