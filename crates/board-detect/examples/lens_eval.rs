@@ -16,7 +16,7 @@
 //!
 //! Writes `OUTDIR/results.jsonl` (one line per image: lens, truth, our corners, outcome, time)
 //! and, with `--save`, the images as `OUTDIR/<population>-<i>.png` (for the OpenCV
-//! comparison, `/tmp/auditA/w/opencv_eval.py`). Prints a summary per population.
+//! comparison, `benches/detect/opencv_lens_eval.py OUTDIR`). Prints a summary per population.
 use board_detect::synth::{Lens, Scene};
 use board_detect::{Board, DetectOptions, GrayView, detect};
 use nalgebra::{Rotation3, Unit, Vector3};
