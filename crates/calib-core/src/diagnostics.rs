@@ -235,6 +235,24 @@ fn model_invalid_message(
     )
 }
 
+/// For a fisheye whose fold lies beyond every observed corner: the sentence saying that a
+/// circular fisheye (an image circle inside the sensor, black beyond) whose circle ends before
+/// the fold is not concerned. Its true lens may fold just outside the circle, and the fit
+/// reproduces that, while the check walks out to the black image corners (measured on rendered
+/// photographs, docs/board-detect.md, "Photographs to a fisheye calibration"). Empty otherwise.
+fn circular_fisheye_note(model: CameraModel, validity: &Validity, observed_radius: f64) -> String {
+    if !model.is_fisheye()
+        || !validity.valid_radius_px.is_finite()
+        || validity.valid_radius_px <= observed_radius
+    {
+        return String::new();
+    }
+    format!(
+        " (the farthest corner seen is {observed_radius:.0} px from the principal point, inside the fold: for a circular fisheye whose image circle ends within {:.0} px of the principal point, black beyond, the fold lies outside the picture and nothing needs doing)",
+        validity.valid_radius_px
+    )
+}
+
 /// How to hold coefficients fixed, in both front ends: each of `choices` (alternatives, each a
 /// set of names) as the command line's `--fix` and as the Python functions' `fix=`, e.g.
 /// "--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4']". The messages are shared by
@@ -428,10 +446,17 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
         }
         let validity = camera.validity(spec.image_size.width, spec.image_size.height);
         if !validity.covers_image(VALIDITY_MARGIN) {
+            let observed_radius = problem
+                .observations
+                .iter()
+                .filter(|o| o.camera == c)
+                .flat_map(|o| &o.pixels)
+                .map(|p| (p.x - k.cx).hypot(p.y - k.cy))
+                .fold(0.0, f64::max);
             warnings.push(Warning::new(
                 WarningCode::ModelInvalid,
                 format!(
-                    "{who}{}",
+                    "{who}{}{}",
                     model_invalid_message(
                         camera.model,
                         &validity,
@@ -444,7 +469,8 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                             .map(|(_, name)| name)
                             .collect::<Vec<_>>(),
                         several.then_some(spec.name.as_str()),
-                    )
+                    ),
+                    circular_fisheye_note(camera.model, &validity, observed_radius)
                 ),
             ));
         }
@@ -801,6 +827,49 @@ mod tests {
                 .collect(),
             object_points: object,
         }
+    }
+
+    /// A Kannala-Brandt lens `theta (1 + k1 theta^2)` with `k1 = -0.1` folds where
+    /// `1 + 3 k1 theta^2 = 0`, theta = 1.826 rad, at `300 * 1.826 * (1 - 1/3)` = 365 px at fx 300:
+    /// inside a 1280x960 image (corners 800 px out). Corners seen out to 300 px (a circular
+    /// fisheye's circle) get the note; corners seen beyond the fold, or a pinhole model, do not.
+    #[test]
+    fn a_fold_beyond_every_corner_seen_is_explained_for_circular_fisheyes() {
+        use camera_model::{AnyCamera, Intrinsics};
+        let fisheye = AnyCamera::new(
+            CameraModel::KannalaBrandt4,
+            Intrinsics::new(300.0, 300.0, 639.5, 479.5),
+            vec![-0.1, 0.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let v = fisheye.validity(1280, 960);
+        let fold = 300.0 * (1.0f64 / 0.3).sqrt() * (2.0 / 3.0);
+        assert!((v.valid_radius_px - fold).abs() < 3.0, "{v:?} vs {fold}");
+        assert!(!v.covers_image(VALIDITY_MARGIN));
+        let note = circular_fisheye_note(CameraModel::KannalaBrandt4, &v, 300.0);
+        assert!(
+            note.contains("300 px") && note.contains("nothing needs doing"),
+            "{note}"
+        );
+        assert!(
+            note.contains(&format!("{:.0} px", v.valid_radius_px)),
+            "{note}"
+        );
+        assert_eq!(
+            circular_fisheye_note(CameraModel::KannalaBrandt4, &v, 400.0),
+            ""
+        );
+        let pinhole = AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+            vec![-0.5, 0.0, 0.0, 0.0],
+        )
+        .unwrap()
+        .validity(640, 480);
+        assert_eq!(
+            circular_fisheye_note(CameraModel::BrownConrady4, &pinhole, 100.0),
+            ""
+        );
     }
 
     #[test]
