@@ -17,24 +17,13 @@
 //! Writes `OUTDIR/results.jsonl` (one line per image: lens, truth, our corners, outcome, time)
 //! and, with `--save`, the images as `OUTDIR/<population>-<i>.png` (for the OpenCV
 //! comparison, `benches/detect/opencv_lens_eval.py OUTDIR`). Prints a summary per population.
+mod support;
+
 use board_detect::synth::{Lens, Scene};
 use board_detect::{Board, DetectOptions, GrayView, detect};
 use nalgebra::{Rotation3, Unit, Vector3};
 use std::io::Write;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-}
+use support::{Rng, kb_radius};
 
 /// Largest angle imaged (radians) for the fisheye image circle, or `None`.
 struct Setup {
@@ -260,15 +249,6 @@ fn place(
         }
     }
     (min_sp >= spacing.0 && min_sp <= spacing.1).then_some(min_sp)
-}
-
-/// Normalized radius of the fisheye ray at angle `theta`.
-fn kb_radius(scene: &Scene, theta: f64) -> f64 {
-    let Lens::KannalaBrandt(k) = scene.lens else {
-        return f64::MAX;
-    };
-    let t = theta * theta;
-    theta * (1.0 + t * (k[0] + t * (k[1] + t * (k[2] + t * k[3]))))
 }
 
 fn main() {

@@ -24,22 +24,11 @@
 //! the same poses from a known relative pose (`X_right = R X_left + T`, baseline about 8 squares):
 //! `OUTDIR/right-NN.png`, and `right` and `R`, `T` in `truth.json`; only poses where the whole
 //! board is in both images are kept.
+mod support;
+
 use board_detect::synth::{Lens, Scene};
 use nalgebra::{Rotation3, Unit, Vector3};
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-}
+use support::{Rng, kb_radius};
 
 /// A camera: the scene's intrinsics and lens, plus the fisheye image circle (largest angle).
 #[derive(Clone)]
@@ -125,15 +114,6 @@ fn camera(kind: &str, rng: &mut Rng) -> Camera {
         },
         _ => panic!("unknown lens {kind} (kb or barrel)"),
     }
-}
-
-/// Normalized radius of the fisheye ray at angle `theta`.
-fn kb_radius(scene: &Scene, theta: f64) -> f64 {
-    let Lens::KannalaBrandt(k) = scene.lens else {
-        return f64::MAX;
-    };
-    let t = theta * theta;
-    theta * (1.0 + t * (k[0] + t * (k[1] + t * (k[2] + t * k[3]))))
 }
 
 /// Whether the board's outer squares and all corners are inside the image (and its circle).
@@ -261,6 +241,16 @@ fn main() {
     }
     let kind = args[0].as_str();
     let outdir = std::path::PathBuf::from(&args[1]);
+    let save = |name: &str, pix: &[u8]| {
+        image::save_buffer(
+            outdir.join(name),
+            pix,
+            1280,
+            960,
+            image::ExtendedColorType::L8,
+        )
+        .unwrap();
+    };
     let (mut seed, mut views, mut stereo) = (1u64, 20usize, false);
     let mut i = 2;
     while i < args.len() {
@@ -336,14 +326,7 @@ fn main() {
         }
         let (pix, corners, noise) = render(&left, &rot, &t, &mut rng, seed * 1000 + n as u64);
         let name = format!("view-{n:02}.png");
-        image::save_buffer(
-            outdir.join(&name),
-            &pix,
-            1280,
-            960,
-            image::ExtendedColorType::L8,
-        )
-        .unwrap();
+        save(&name, &pix);
         let mut v = serde_json::json!({
             "image": name, "rotation_vector": Vector3::from(rot.scaled_axis()).as_slice(),
             "translation": t.as_slice(), "corners": corners, "noise": noise,
@@ -352,14 +335,7 @@ fn main() {
         if let (Some(rc), Some((rr, rt))) = (&right, &right_pose) {
             let (pix, corners, noise) = render(rc, rr, rt, &mut rng, seed * 1000 + 500 + n as u64);
             let name = format!("right-{n:02}.png");
-            image::save_buffer(
-                outdir.join(&name),
-                &pix,
-                1280,
-                960,
-                image::ExtendedColorType::L8,
-            )
-            .unwrap();
+            save(&name, &pix);
             v["right"] = serde_json::json!({ "image": name, "corners": corners, "noise": noise });
         }
         out_views.push(v);
