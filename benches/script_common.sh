@@ -15,3 +15,20 @@ command_line() {
     for a in "$@"; do line+=" $(printf '%q' "$a")"; done
     printf '%s' "$line"
 }
+
+# python_venv VENV CHECK PACKAGE...: the bench's own virtual environment. Creates VENV with
+# `python3 -m venv` if it has no python yet, and installs the PACKAGEs with pip unless the Python
+# statement CHECK (e.g. 'import cv2, numpy') already runs there.
+python_venv() {
+    local venv="$1" check="$2"
+    shift 2
+    echo "== Python environment ($venv)"
+    if [[ ! -x "$venv/bin/python" ]]; then
+        command -v python3 >/dev/null || die "python3 not found"
+        python3 -m venv "$venv" || die "could not create the virtual environment $venv (python3-venv missing?)"
+    fi
+    if ! "$venv/bin/python" -c "$check" 2>/dev/null; then
+        "$venv/bin/python" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
+        "$venv/bin/python" -m pip install --quiet --upgrade "$@" || die "pip install $* failed"
+    fi
+}

@@ -56,16 +56,7 @@ PY=$VENV/bin/python
 export OUT=$BENCH/out
 mkdir -p "$OUT"
 
-echo "== Python environment ($VENV)"
-if [[ ! -x "$PY" ]]; then
-    command -v python3 >/dev/null || die "python3 not found"
-    python3 -m venv "$VENV" || die "could not create the virtual environment $VENV (python3-venv missing?)"
-fi
-if ! "$PY" -c 'import cv2, numpy' 2>/dev/null; then
-    "$PY" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
-    "$PY" -m pip install --quiet --upgrade "opencv-python-headless>=5.0.0" numpy \
-        || die "pip install opencv-python-headless numpy failed"
-fi
+python_venv "$VENV" 'import cv2, numpy' "opencv-python-headless>=5.0.0" numpy
 
 # shellcheck source=../calib_binary.sh
 source benches/calib_binary.sh

@@ -76,16 +76,7 @@ mkdir -p "$OUT"
 export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 # ---------------------------------------------------------------- 1. Python + OpenCV
-echo "== Python environment ($VENV)"
-if [[ ! -x "$PY" ]]; then
-    command -v python3 >/dev/null || die "python3 not found"
-    python3 -m venv "$VENV" || die "could not create the virtual environment $VENV (python3-venv missing?)"
-fi
-if ! "$PY" -c 'import cv2, numpy' 2>/dev/null; then
-    "$PY" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
-    "$PY" -m pip install --quiet opencv-python-headless numpy \
-        || die "pip install opencv-python-headless numpy failed"
-fi
+python_venv "$VENV" 'import cv2, numpy' opencv-python-headless numpy
 CV_VERSION="$("$PY" -c 'import cv2; print(cv2.__version__)')"
 NP_VERSION="$("$PY" -c 'import numpy; print(numpy.__version__)')"
 echo "cv2 $CV_VERSION, numpy $NP_VERSION ($("$PY" --version 2>&1))"

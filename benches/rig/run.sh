@@ -77,16 +77,7 @@ mkdir -p "$OUT"
 export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 # ---------------------------------------------------------------- 1. Python + OpenCV
-echo "== Python environment ($VENV)"
-if [[ ! -x "$PY" ]]; then
-    command -v python3 >/dev/null || die "python3 not found"
-    python3 -m venv "$VENV" || die "could not create the virtual environment $VENV (python3-venv missing?)"
-fi
-if ! "$PY" -c 'import cv2, numpy; cv2.calibrateMultiview' 2>/dev/null; then
-    "$PY" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
-    "$PY" -m pip install --quiet --upgrade "opencv-python-headless>=5.0.0" numpy \
-        || die "pip install opencv-python-headless numpy failed"
-fi
+python_venv "$VENV" 'import cv2, numpy; cv2.calibrateMultiview' "opencv-python-headless>=5.0.0" numpy
 "$PY" -c 'import cv2; cv2.calibrateMultiview' 2>/dev/null \
     || die "cv2 $("$PY" -c 'import cv2; print(cv2.__version__)') has no calibrateMultiview (OpenCV 5 needed; delete $VENV to reinstall)"
 CV_VERSION="$("$PY" -c 'import cv2; print(cv2.__version__)')"
