@@ -610,13 +610,17 @@ mod tests {
 
     proptest! {
         /// The analytic Jacobian of every residual block against central differences, and the
-        /// fused normal equations against the Jacobian's, for random models, poses, rigs, weights,
-        /// losses, aspect ratios and shared focal lengths.
+        /// fused normal equations against the Jacobian's, for random models, poses, rigs, weights
+        /// (or none: the kernels' unscaled path), losses, aspect ratios and shared focal lengths.
         #[test]
         fn jacobians_and_fused_path_are_correct(
-            seed in 0u64..u64::MAX, aspect in prop::bool::ANY, shared in prop::bool::ANY, axis in prop::bool::ANY
+            seed in 0u64..u64::MAX, aspect in prop::bool::ANY, shared in prop::bool::ANY, axis in prop::bool::ANY,
+            unweighted in prop::bool::ANY
         ) {
-            let p = problem(seed, aspect, shared);
+            let mut p = problem(seed, aspect, shared);
+            if unweighted {
+                p.observations[0].weights = None;
+            }
             let r = if axis { check_all::<AxisAngle>(&p) } else { check_all::<EulerXyz>(&p) };
             prop_assert!(r.is_ok(), "{:?}", r);
         }

@@ -14,14 +14,19 @@
 //!   `dp/dt_f = D`, `dp/drho_f = Omega_f^T (X x R_f^T D)`, `dp/dt_c = R_c D`,
 //!   `dp/drho_c = Omega_c^T (q x D)`.
 //!
-//! The model part has the lens model's width `N` as a const generic, taken from its parameter
-//! Jacobian type `SMatrix<f64, 2, N>` ([`KernelWidth`]), so every model has the fast path. Per
+//! The model part has the lens model's width as a const generic, taken from its parameter
+//! Jacobian type ([`KernelWidth`]), so every model has the fast path: `N` for a plain
+//! `SMatrix<f64, 2, N>`, and for a [`RowSparseJacobian`] the `M` parameters each pixel row
+//! depends on (thin prism: 10 of 12), each row's derivatives scattered to its own columns. Per
 //! point the rows and residual are scaled by `sqrt(w rho'(w s))` (weight `w`, robust loss `rho`
 //! applied to the weighted squared residual `w s`), the first-order correction that is exact for
 //! the Huber and Cauchy losses (concave in `s`, see `lm_solver::loss`).
 
 use crate::problem::ObservationSpec;
-use camera_model::{Camera, DifferentiablePose, LensDistortion, ParamJacobian, Projection};
+use camera_model::{
+    Camera, DifferentiablePose, LensDistortion, ParamJacobian, Projection, RowSparseJacobian,
+    RowSupport,
+};
 use lm_solver::gram::CompactGram;
 use lm_solver::{GramBlocks, Loss};
 use nalgebra::{Matrix2x3, Matrix3, Matrix3x6, Point3, SMatrix, Vector3};
@@ -107,12 +112,7 @@ impl<const N: usize> KernelWidth for SMatrix<f64, 2, N> {
         D: LensDistortion<ParamJacobian = Self>,
         P: Projection,
     {
-        let geometry = ReferenceGeometry { pose };
-        if view.observation.weights.is_none() && gram.loss().is_trivial() {
-            accumulate::<D, P, _, 8, N, false>(camera, &geometry, view, gram)
-        } else {
-            accumulate::<D, P, _, 8, N, true>(camera, &geometry, view, gram)
-        }
+        reference_rows::<D, P, AllParams<N>, N>(camera, pose, view, gram)
     }
 
     #[inline]
@@ -127,12 +127,100 @@ impl<const N: usize> KernelWidth for SMatrix<f64, 2, N> {
         D: LensDistortion<ParamJacobian = Self>,
         P: Projection,
     {
-        let geometry = RigGeometry::new(pose, rig);
-        if view.observation.weights.is_none() && gram.loss().is_trivial() {
-            accumulate::<D, P, _, 11, N, false>(camera, &geometry, view, gram)
-        } else {
-            accumulate::<D, P, _, 11, N, true>(camera, &geometry, view, gram)
-        }
+        rig_rows::<D, P, AllParams<N>, N>(camera, pose, rig, view, gram)
+    }
+}
+
+impl<S: RowSupport<M>, const N: usize, const M: usize> KernelWidth for RowSparseJacobian<S, N, M> {
+    #[inline]
+    fn reference<D, P>(
+        camera: &Camera<D, P>,
+        pose: &DifferentiablePose,
+        view: &ViewInput<'_>,
+        gram: &mut GramBlocks<'_>,
+    ) -> Result<f64, usize>
+    where
+        D: LensDistortion<ParamJacobian = Self>,
+        P: Projection,
+    {
+        reference_rows::<D, P, S, M>(camera, pose, view, gram)
+    }
+
+    #[inline]
+    fn rig<D, P>(
+        camera: &Camera<D, P>,
+        pose: &DifferentiablePose,
+        rig: &DifferentiablePose,
+        view: &ViewInput<'_>,
+        gram: &mut GramBlocks<'_>,
+    ) -> Result<f64, usize>
+    where
+        D: LensDistortion<ParamJacobian = Self>,
+        P: Projection,
+    {
+        rig_rows::<D, P, S, M>(camera, pose, rig, view, gram)
+    }
+}
+
+/// Every parameter in both rows: the support of a plain `SMatrix<f64, 2, N>` Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct AllParams<const N: usize>;
+
+impl<const N: usize> RowSupport<N> for AllParams<N> {
+    const ROWS: [[usize; N]; 2] = [first_indices::<N>(), first_indices::<N>()];
+}
+
+/// `[0, 1, ..., N - 1]`.
+const fn first_indices<const N: usize>() -> [usize; N] {
+    let mut indices = [0; N];
+    let mut i = 0;
+    while i < N {
+        indices[i] = i;
+        i += 1;
+    }
+    indices
+}
+
+/// [`KernelWidth::reference`] with rows of the `M` parameters `L` names per pixel row.
+#[inline]
+fn reference_rows<D, P, L, const M: usize>(
+    camera: &Camera<D, P>,
+    pose: &DifferentiablePose,
+    view: &ViewInput<'_>,
+    gram: &mut GramBlocks<'_>,
+) -> Result<f64, usize>
+where
+    D: LensDistortion,
+    P: Projection,
+    L: RowSupport<M>,
+{
+    let geometry = ReferenceGeometry { pose };
+    if view.observation.weights.is_none() && gram.loss().is_trivial() {
+        accumulate::<D, P, _, L, 8, M, false>(camera, &geometry, view, gram)
+    } else {
+        accumulate::<D, P, _, L, 8, M, true>(camera, &geometry, view, gram)
+    }
+}
+
+/// [`KernelWidth::rig`] with rows of the `M` parameters `L` names per pixel row.
+#[inline]
+fn rig_rows<D, P, L, const M: usize>(
+    camera: &Camera<D, P>,
+    pose: &DifferentiablePose,
+    rig: &DifferentiablePose,
+    view: &ViewInput<'_>,
+    gram: &mut GramBlocks<'_>,
+) -> Result<f64, usize>
+where
+    D: LensDistortion,
+    P: Projection,
+    L: RowSupport<M>,
+{
+    let geometry = RigGeometry::new(pose, rig);
+    if view.observation.weights.is_none() && gram.loss().is_trivial() {
+        accumulate::<D, P, _, L, 11, M, false>(camera, &geometry, view, gram)
+    } else {
+        accumulate::<D, P, _, L, 11, M, true>(camera, &geometry, view, gram)
     }
 }
 
@@ -155,18 +243,18 @@ fn scale<const SCALED: bool>(
     }
 }
 
-/// Pushes a point's x and y rows (fixed parts `fixed`, the distortion derivatives from `dd`,
-/// residuals `r`), all scaled by `c`.
+/// Pushes a point's x and y rows (fixed parts `fixed`, the distortion derivatives from `dd` that
+/// `L` names for each row, residuals `r`), all scaled by `c`.
 #[inline(always)]
-fn push_rows<J: ParamJacobian, const F: usize, const N: usize>(
-    grams: [&mut CompactGram<F, N>; 2],
+fn push_rows<J: ParamJacobian, L: RowSupport<M>, const F: usize, const M: usize>(
+    grams: [&mut CompactGram<F, M>; 2],
     fixed: [[f64; F]; 2],
     dd: &J,
     r: [f64; 2],
     c: f64,
 ) {
     for (row, (gram, fixed)) in grams.into_iter().zip(fixed).enumerate() {
-        gram.push(&fixed, &distortion_row::<_, N>(dd, row, c), r[row] * c);
+        gram.push(&fixed, &distortion_row::<_, L, M>(dd, row, c), r[row] * c);
     }
 }
 
@@ -180,11 +268,15 @@ fn cleared<'g>(gram: &'g mut GramBlocks<'_>) -> (usize, &'g mut [f64], &'g mut [
     (n, g, gradient)
 }
 
-/// The distortion derivatives of one pixel row (`row` 0: x, 1: y), `N` of them.
+/// The distortion derivatives of one pixel row (`row` 0: x, 1: y) that `L` names, `M` of them.
 #[inline(always)]
-fn distortion_row<J: ParamJacobian, const N: usize>(dd: &J, row: usize, scale: f64) -> [f64; N] {
+fn distortion_row<J: ParamJacobian, L: RowSupport<M>, const M: usize>(
+    dd: &J,
+    row: usize,
+    scale: f64,
+) -> [f64; M] {
     let s = dd.as_slice();
-    std::array::from_fn(|k| s[2 * k + row] * scale)
+    std::array::from_fn(|k| s[2 * L::ROWS[row][k] + row] * scale)
 }
 
 /// How a view's board points reach the camera, and what the fixed part of a compact row holds:
@@ -209,11 +301,13 @@ trait ViewGeometry<const F: usize> {
         c: f64,
     ) -> [f64; F];
 
-    /// Adds the sums of the x and y rows onto the residual block's Gram matrix and gradient.
-    fn scatter<const N: usize>(
+    /// Adds the sums of the x and y rows onto the residual block's Gram matrix and gradient;
+    /// entry `k` of row `r`'s model part is distortion parameter `support[r][k]`.
+    fn scatter<const M: usize>(
         &self,
-        sums: [&CompactGram<F, N>; 2],
+        sums: [&CompactGram<F, M>; 2],
         view: &ViewInput<'_>,
+        support: &[[usize; M]; 2],
         gram: &mut [f64],
         gradient: &mut [f64],
         n: usize,
@@ -256,10 +350,11 @@ impl ViewGeometry<8> for ReferenceGeometry<'_> {
         ]
     }
 
-    fn scatter<const N: usize>(
+    fn scatter<const M: usize>(
         &self,
-        sums: [&CompactGram<8, N>; 2],
+        sums: [&CompactGram<8, M>; 2],
         view: &ViewInput<'_>,
+        support: &[[usize; M]; 2],
         gram: &mut [f64],
         gradient: &mut [f64],
         n: usize,
@@ -267,13 +362,13 @@ impl ViewGeometry<8> for ReferenceGeometry<'_> {
         // At most 8 + 16 targets: a fixed array, no allocation.
         let mut targets = [None; 8 + 16];
         for (row, sums) in sums.into_iter().enumerate() {
-            let t = &mut targets[..8 + N];
+            let t = &mut targets[..8 + M];
             t.fill(None);
             t[0] = [view.focal.x, view.focal.y][row];
             if let Some(c) = view.camera_col {
                 t[1] = Some((c + 2 + row, 1.0));
-                for k in 0..N {
-                    t[8 + k] = Some((c + 4 + k, 1.0));
+                for (k, parameter) in support[row].iter().enumerate() {
+                    t[8 + k] = Some((c + 4 + parameter, 1.0));
                 }
             }
             if let Some(p) = view.pose_col {
@@ -345,10 +440,11 @@ impl ViewGeometry<11> for RigGeometry<'_> {
         ]
     }
 
-    fn scatter<const N: usize>(
+    fn scatter<const M: usize>(
         &self,
-        sums: [&CompactGram<11, N>; 2],
+        sums: [&CompactGram<11, M>; 2],
         view: &ViewInput<'_>,
+        support: &[[usize; M]; 2],
         gram: &mut [f64],
         gradient: &mut [f64],
         n: usize,
@@ -366,8 +462,8 @@ impl ViewGeometry<11> for RigGeometry<'_> {
             }
             if let Some(c) = view.camera_col {
                 push((1, c + 2 + row, 1.0));
-                for k in 0..N {
-                    push((11 + k, c + 4 + k, 1.0));
+                for (k, parameter) in support[row].iter().enumerate() {
+                    push((11 + k, c + 4 + parameter, 1.0));
                 }
             }
             for k in 0..3 {
@@ -394,21 +490,22 @@ impl ViewGeometry<11> for RigGeometry<'_> {
 /// observation) of the first point the camera cannot see. Cost `O(n)`, no allocation.
 /// `SCALED = false` is the unweighted least-squares case (all weights one, trivial loss),
 /// compiled without the per-point scaling.
-fn accumulate<D, P, G, const F: usize, const N: usize, const SCALED: bool>(
+fn accumulate<D, P, G, L, const F: usize, const M: usize, const SCALED: bool>(
     camera: &Camera<D, P>,
     geometry: &G,
     view: &ViewInput<'_>,
     gram: &mut GramBlocks<'_>,
 ) -> Result<f64, usize>
 where
-    D: LensDistortion<ParamJacobian = SMatrix<f64, 2, N>>,
+    D: LensDistortion,
     P: Projection,
     G: ViewGeometry<F>,
+    L: RowSupport<M>,
 {
     let loss = gram.loss();
     let obs = view.observation;
-    let mut gx = CompactGram::<F, N>::new();
-    let mut gy = CompactGram::<F, N>::new();
+    let mut gx = CompactGram::<F, M>::new();
+    let mut gy = CompactGram::<F, M>::new();
     let mut total = 0.0;
     for (i, (x, m)) in obs.object.iter().zip(&obs.pixels).enumerate() {
         let (s, point) = geometry.transform(x);
@@ -419,7 +516,7 @@ where
         let (rho, c) = scale::<SCALED>(obs, i, loss, rx, ry);
         total += rho;
         let ds = &j.d_camera_point;
-        push_rows(
+        push_rows::<_, L, F, M>(
             [&mut gx, &mut gy],
             [
                 geometry.fixed_row(&point, x, ds, 0, j.d_intrinsics[(0, 0)], c),
@@ -432,6 +529,6 @@ where
     }
     let (n, g, gradient) = cleared(gram);
     let (gx, gy) = (gx.finish(), gy.finish());
-    geometry.scatter([gx, gy], view, g, gradient, n);
+    geometry.scatter([gx, gy], view, &L::ROWS, g, gradient, n);
     Ok(total)
 }

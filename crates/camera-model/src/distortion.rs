@@ -49,6 +49,66 @@ impl<const N: usize> ParamJacobian for SMatrix<f64, 2, N> {
     }
 }
 
+/// Which parameters each distorted coordinate depends on, for a model whose `x_d` and `y_d` each
+/// depend on only `M` of its parameters (the thin-prism terms `s3, s4` never enter `x_d`, nor
+/// `s1, s2` `y_d`). The fused normal-equation kernels of `calib-core` then accumulate rows of `M`
+/// distortion derivatives instead of all of them: for [`ThinPrism12`] 10 instead of 12, 18%
+/// fewer products per pixel row (`docs/benchmarks-models.md`, section 3).
+pub trait RowSupport<const M: usize>:
+    Copy + Clone + Send + Sync + std::fmt::Debug + PartialEq + 'static
+{
+    /// `ROWS[0]`: the indices (in parameter order, increasing) of the parameters `x_d` may
+    /// depend on; `ROWS[1]`: those of `y_d`. Every other entry of that row of the parameter
+    /// Jacobian is exactly zero at every point.
+    const ROWS: [[usize; M]; 2];
+}
+
+/// The parameter Jacobian (2 x `N`) of a model whose rows have the structural zeros that `S`
+/// describes ([`RowSupport`]). Read and used like the plain matrix; the type only carries the
+/// row support to the kernels that exploit it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowSparseJacobian<S, const N: usize, const M: usize> {
+    /// The whole matrix, zeros included.
+    pub matrix: SMatrix<f64, 2, N>,
+    support: std::marker::PhantomData<S>,
+}
+
+impl<S, const N: usize, const M: usize> From<SMatrix<f64, 2, N>> for RowSparseJacobian<S, N, M> {
+    #[inline]
+    fn from(matrix: SMatrix<f64, 2, N>) -> Self {
+        Self {
+            matrix,
+            support: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<S: RowSupport<M>, const N: usize, const M: usize> ParamJacobian
+    for RowSparseJacobian<S, N, M>
+{
+    #[inline]
+    fn as_slice(&self) -> &[f64] {
+        self.matrix.as_slice()
+    }
+
+    #[inline]
+    fn scale_rows(&self, a: f64, b: f64) -> Self {
+        self.matrix.scale_rows(a, b).into()
+    }
+}
+
+/// The row support of [`ThinPrism12`]: `x_d` depends on `k1..k6, p1, p2, s1, s2`, `y_d` on
+/// `k1..k6, p1, p2, s3, s4`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinPrismRows;
+
+impl RowSupport<10> for ThinPrismRows {
+    const ROWS: [[usize; 10]; 2] = [
+        [0, 1, 2, 3, 4, 5, 6, 7, 8, 9],
+        [0, 1, 2, 3, 4, 5, 6, 7, 10, 11],
+    ];
+}
+
 /// A lens distortion model acting on normalized image coordinates.
 ///
 /// Parameters are exchanged as slices of length [`LensDistortion::NUM_PARAMS`]; passing a shorter
@@ -345,7 +405,7 @@ fn rational_thin_prism<const N: usize>(
 }
 
 macro_rules! rational_family_model {
-    ($(#[$doc:meta])* $name:ident, $n:literal, $label:literal, [$($field:ident),*]) => {
+    ($(#[$doc:meta])* $name:ident, $n:literal, $label:literal, [$($field:ident),*], $jacobian:ty) => {
         $(#[$doc])*
         #[derive(Debug, Clone, Copy, PartialEq, Default)]
         pub struct $name {
@@ -372,7 +432,7 @@ macro_rules! rational_family_model {
             const NAME: &'static str = $label;
             const PARAM_NAMES: &'static [&'static str] = &[$(stringify!($field)),*];
             const TANGENTIAL_PARAMS: &'static [usize] = &[2, 3];
-            type ParamJacobian = SMatrix<f64, 2, $n>;
+            type ParamJacobian = $jacobian;
 
             #[inline]
             fn from_params(p: &[f64]) -> Self {
@@ -399,8 +459,9 @@ macro_rules! rational_family_model {
             fn distort_with_jacobians(
                 &self,
                 n: &Vector2<f64>,
-            ) -> (Vector2<f64>, Matrix2<f64>, SMatrix<f64, 2, $n>) {
-                rational_thin_prism::<$n>(&self.full(), n, true)
+            ) -> (Vector2<f64>, Matrix2<f64>, $jacobian) {
+                let (distorted, d_point, d_params) = rational_thin_prism::<$n>(&self.full(), n, true);
+                (distorted, d_point, d_params.into())
             }
 
             fn denominator(&self, n: &Vector2<f64>) -> Option<f64> {
@@ -430,7 +491,8 @@ rational_family_model!(
     /// Brown-Conrady with `k3`: `[k1, k2, p1, p2, k3]`, OpenCV's default model (ROS
     /// `plumb_bob`): radial factor `1 + k1 r^2 + k2 r^4 + k3 r^6` plus the tangential terms of
     /// [`BrownConrady`].
-    BrownConrady5, 5, "brown-conrady5", [k1, k2, p1, p2, k3]
+    BrownConrady5, 5, "brown-conrady5", [k1, k2, p1, p2, k3],
+    SMatrix<f64, 2, 5>
 );
 
 rational_family_model!(
@@ -438,14 +500,16 @@ rational_family_model!(
     /// `[k1, k2, p1, p2, k3, k4, k5, k6]`, radial factor
     /// `(1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)`. The denominator must
     /// stay positive over the image ([`LensDistortion::denominator`]).
-    Rational8, 8, "rational8", [k1, k2, p1, p2, k3, k4, k5, k6]
+    Rational8, 8, "rational8", [k1, k2, p1, p2, k3, k4, k5, k6],
+    SMatrix<f64, 2, 8>
 );
 
 rational_family_model!(
     /// [`Rational8`] plus OpenCV's thin-prism terms (`CALIB_THIN_PRISM_MODEL`):
     /// `[k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4]`, adding `s1 r^2 + s2 r^4` to `x_d` and
     /// `s3 r^2 + s4 r^4` to `y_d`.
-    ThinPrism12, 12, "thin-prism12", [k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4]
+    ThinPrism12, 12, "thin-prism12", [k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4],
+    RowSparseJacobian<ThinPrismRows, 12, 10>
 );
 
 /// The Kannala-Brandt fisheye model with four coefficients, acting on the equidistant
@@ -653,6 +717,35 @@ mod tests {
             check_model(Rational8::new([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]), n)?;
             check_model(ThinPrism12::new(c), n)?;
             check_model(KannalaBrandt4::new([c[0], c[1] * 0.3, c[4] * 0.1, c[5] * 0.03]), n)?;
+        }
+    }
+
+    /// The row support [`ThinPrismRows`] declares is the Jacobian's: every entry outside it is
+    /// exactly zero, and every entry inside it is non-zero at a generic point (a support that
+    /// left out a live entry would drop it from the kernels' normal equations).
+    #[test]
+    fn thin_prism_row_support_holds_every_live_entry() {
+        let model = ThinPrism12::new([
+            -0.21, 0.05, 0.0013, -0.0021, 0.012, 0.03, -0.004, 0.002, 0.0011, -0.0004, 0.0007,
+            0.0003,
+        ]);
+        for n in [
+            Vector2::new(0.4, -0.3),
+            Vector2::new(-0.7, 0.1),
+            Vector2::new(0.05, 0.6),
+        ] {
+            let (_, _, j) = model.distort_with_jacobians(&n);
+            for (row, support) in ThinPrismRows::ROWS.iter().enumerate() {
+                for k in 0..12 {
+                    let value = j.matrix[(row, k)];
+                    if support.contains(&k) {
+                        assert!(value != 0.0, "row {row}, parameter {k} at {n:?}");
+                    } else {
+                        assert_eq!(value, 0.0, "row {row}, parameter {k} at {n:?}");
+                    }
+                }
+                assert!(support.windows(2).all(|w| w[0] < w[1]), "{support:?}");
+            }
         }
     }
 

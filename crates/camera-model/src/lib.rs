@@ -63,7 +63,7 @@ pub mod validity;
 pub use camera::{Camera, CameraPointJacobians, ProjectionJacobians};
 pub use distortion::{
     BrownConrady, BrownConrady4, BrownConrady5, KannalaBrandt4, LensDistortion, ParamJacobian,
-    Rational8, ThinPrism12,
+    Rational8, RowSparseJacobian, RowSupport, ThinPrism12, ThinPrismRows,
 };
 pub use error::CameraModelError;
 pub use intrinsics::Intrinsics;
