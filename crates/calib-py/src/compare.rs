@@ -67,7 +67,9 @@ fn model_list(models: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<CameraModel>> {
 /// on the odd-numbered ones (camera held, only their poses estimated), then the other way round
 /// (``cross_validated_rms``, over both halves' held-out points; 4 views or more). The
 /// recommendation is the model with the fewest parameters among the valid ones whose
-/// cross-validated RMS is within 2% of the best valid one; ``best_fit`` and ``gap_to_best_fit``
+/// cross-validated RMS is within 2% of the best valid one (or, when no valid one is within 2%
+/// of the best fit, one whose fold lies within the 5% margin beyond the image border and which
+/// is); ``best_fit`` and ``gap_to_best_fit``
 /// say when a model that folds inside the image fits clearly better.
 ///
 /// ``object_points``, ``image_points``, ``image_size`` and ``names`` as in
@@ -315,8 +317,10 @@ impl ModelComparison {
     }
 
     /// The recommended model's name: the fewest parameters among the models valid over the
-    /// image whose cross-validated RMS is within 2% of the best valid one (``None`` if no model
-    /// is valid).
+    /// image whose cross-validated RMS is within 2% of the best valid one; when none is within
+    /// 2% of ``best_fit`` but a model whose fold lies within the 5% margin beyond the image
+    /// border is, the same rule among those and the valid ones (``None`` if no model valid over
+    /// the image could be cross-validated).
     #[getter]
     fn recommended(&self) -> Option<&'static str> {
         self.inner.recommended.map(|m| m.name())

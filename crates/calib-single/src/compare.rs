@@ -6,9 +6,10 @@
 //! evaluated on the other half: the camera is held at the fitted values and only the held-out
 //! views' poses are estimated; the cross-validated RMS is over both halves' held-out points. The
 //! recommendation is the model with the fewest parameters whose cross-validated RMS is within
-//! [`CV_TOLERANCE`] of the best valid one and which is valid (one-to-one) over the image; when a
-//! model that folds inside the image fits clearly better, the comparison says so
-//! ([`ModelComparison::gap_to_best_fit`]).
+//! [`CV_TOLERANCE`] of the best valid one and which is valid (one-to-one) over the image; when
+//! no such model fits within [`CV_TOLERANCE`] of the best fit but one whose fold lies within the
+//! validity margin beyond the image border does, that one; when a model that folds inside the
+//! image fits clearly better, the comparison says so ([`ModelComparison::gap_to_best_fit`]).
 
 use crate::calibrate::calibrate;
 use crate::observations::Observations;
@@ -60,8 +61,13 @@ pub struct ModelRow {
 pub struct ModelComparison {
     /// One row per model, in the order given.
     pub rows: Vec<ModelRow>,
-    /// The recommended model: `None` when no model valid over the image could be
-    /// cross-validated (fewer than [`MIN_CROSS_VALIDATION_VIEWS`] views) or calibrated.
+    /// The recommended model: the fewest parameters among the models valid over the image
+    /// (`valid_over_image`) whose cross-validated RMS is within [`CV_TOLERANCE`] of the best of
+    /// them. When none of them is within [`CV_TOLERANCE`] of `best_fit` but a model one-to-one
+    /// over the image itself (its fold within the validity margin beyond the border, so not
+    /// `valid_over_image`) is, the same rule among those and the valid ones. `None` when no model
+    /// valid over the image could be cross-validated (fewer than [`MIN_CROSS_VALIDATION_VIEWS`]
+    /// views, or its fits on half of the views failed) or calibrated.
     pub recommended: Option<CameraModel>,
     /// The model with the lowest cross-validated RMS among all fitted ones, valid or not.
     pub best_fit: Option<CameraModel>,
@@ -145,6 +151,9 @@ pub fn compare_models(
 ) -> ModelComparison {
     let even = subset(observations, |i| i % 2 == 0);
     let odd = subset(observations, |i| i % 2 == 1);
+    // Per row: the model's fit is one-to-one over the image itself (its fold, if any, lies beyond
+    // the border but may lie within the validity margin).
+    let mut inside_image = Vec::with_capacity(models.len());
     let rows: Vec<ModelRow> = models
         .iter()
         .map(|&model| {
@@ -171,14 +180,14 @@ pub fn compare_models(
             match full {
                 Ok(r) => {
                     let size = r.image_size;
+                    let validity = r.camera.validity(size.width, size.height);
+                    inside_image.push((model, validity.covers_image(0.0)));
                     ModelRow {
                         model,
                         parameters: model.num_params() - held,
                         rms: Some(r.rms),
                         cross_validated_rms,
-                        valid_over_image: r
-                            .camera
-                            .validity(size.width, size.height)
+                        valid_over_image: validity
                             .covers_image(calib_core::diagnostics::VALIDITY_MARGIN),
                         warnings: r.warnings,
                         error: None,
@@ -194,23 +203,45 @@ pub fn compare_models(
     // Only the cross-validated error ranks models: on the views it was fitted to, a model with
     // more terms always wins (on one view the old fallback to the RMS recommended thin-prism12).
     let score = |r: &ModelRow| r.cross_validated_rms;
-    let best = rows
-        .iter()
-        .filter(|r| r.valid_over_image)
-        .filter_map(score)
-        .fold(f64::INFINITY, f64::min);
-    let recommended = rows
-        .iter()
-        .filter(|r| {
-            r.valid_over_image && score(r).is_some_and(|s| s <= best * (1.0 + CV_TOLERANCE))
-        })
-        .min_by_key(|r| r.parameters)
-        .map(|r| r.model);
+    // The fewest parameters among the rows `eligible` admits whose score is within the tolerance
+    // of the best of them.
+    let simplest_within = |eligible: &dyn Fn(&ModelRow) -> bool| {
+        let best = rows
+            .iter()
+            .filter(|r| eligible(r))
+            .filter_map(score)
+            .fold(f64::INFINITY, f64::min);
+        rows.iter()
+            .filter(|r| eligible(r) && score(r).is_some_and(|s| s <= best * (1.0 + CV_TOLERANCE)))
+            .min_by_key(|r| r.parameters)
+            .map(|r| (r.model, best))
+    };
     // Models whose fit folds inside the image still show what the lens needs.
     let best_fit = rows
         .iter()
         .filter_map(|r| score(r).map(|s| (r.model, s)))
         .min_by(|a, b| a.1.total_cmp(&b.1));
+    let adequate = |best: f64| best_fit.is_none_or(|(_, b)| best <= b * (1.0 + CV_TOLERANCE));
+    let valid = simplest_within(&|r: &ModelRow| r.valid_over_image);
+    // When no model valid with the margin fits as well as the best fit, one whose fold lies
+    // just beyond the border (within the margin) and which does fit is the one to use: on a
+    // 190-degree fisheye with 1 px of noise, kannala-brandt4 folding at 105% of the corner
+    // distance lost to brown-conrady4 with a cross-validated RMS five times higher (projection
+    // errors of millions of pixels at the image corners, benches/compare_models).
+    let in_image = |r: &ModelRow| {
+        r.valid_over_image
+            || inside_image
+                .iter()
+                .any(|&(m, inside)| m == r.model && inside)
+    };
+    let recommended = match valid {
+        Some((_, best)) if adequate(best) => valid,
+        _ => match simplest_within(&in_image) {
+            Some((m, best)) if adequate(best) => Some((m, best)),
+            _ => valid,
+        },
+    }
+    .map(|(m, _)| m);
     let gap_to_best_fit = recommended.zip(best_fit).and_then(|(m, (_, best))| {
         let chosen = rows.iter().find(|r| r.model == m).and_then(score)?;
         Some((chosen / best - 1.0).max(0.0))
@@ -265,7 +296,20 @@ impl ModelComparison {
                 self.held_fixed.join(", ")
             );
         }
+        let folds_beyond_border = self
+            .recommended
+            .and_then(|m| self.rows.iter().find(|r| r.model == m))
+            .is_some_and(|r| !r.valid_over_image);
         match self.recommended {
+            Some(m) if folds_beyond_border => {
+                let _ = writeln!(
+                    out,
+                    "recommended: {m}: no model one-to-one with the {:.0}% margin beyond the image border fits as well (cross-validated RMS within {:.0}% of the best), and {m} does and stays one-to-one over the image itself: its fold lies within {:.0}% beyond the border (see its model-invalid warning); pixels at the very border are close to it",
+                    100.0 * calib_core::diagnostics::VALIDITY_MARGIN,
+                    100.0 * CV_TOLERANCE,
+                    100.0 * calib_core::diagnostics::VALIDITY_MARGIN,
+                );
+            }
             Some(m) => match (self.best_fit, self.gap_to_best_fit) {
                 (Some(best), Some(gap)) if gap > CV_TOLERANCE => {
                     let _ = writeln!(
@@ -286,6 +330,16 @@ impl ModelComparison {
                 let _ = writeln!(
                     out,
                     "no recommendation: no model could be cross-validated (it needs at least {MIN_CROSS_VALIDATION_VIEWS} views, fitted on one half and evaluated on the other), and by the RMS on the fitted views the model with the most terms always wins"
+                );
+            }
+            None if self
+                .rows
+                .iter()
+                .any(|r| r.valid_over_image && r.cross_validated_rms.is_none()) =>
+            {
+                let _ = writeln!(
+                    out,
+                    "no recommendation: the models valid over the image could not be cross-validated (their fits on half of the views failed: too few views, or views too alike, in each half); add views with the board tilted and spread over the image"
                 );
             }
             None => {

@@ -310,7 +310,8 @@ class ModelComparison:
     def rows(self) -> list[ModelRow]: ...
     @property
     def recommended(self) -> Optional[str]:
-        """Fewest parameters among the valid models within 2% of the best cross-validated RMS."""
+        """Fewest parameters among the valid models within 2% of the best cross-validated RMS
+        (when none is within 2% of best_fit, among those folding within 5% beyond the border)."""
     @property
     def best_fit(self) -> Optional[str]:
         """Lowest cross-validated RMS of all fitted models, valid or not."""
