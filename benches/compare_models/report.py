@@ -1,0 +1,158 @@
+"""Summary of a --compare-models sweep (sweep.py's JSONL): python report.py CASES.jsonl
+
+For each case, the recommended model's fit is judged against the true model's fit on the same
+views by their projection errors against the true camera over the whole image (`grid_rms`):
+the recommendation is *worse* when its error exceeds twice the true model's fit's and the true
+model's fit by more than the noise (sigma px): a systematic error the noise does not explain.
+`worse, rule before`: the same count for the recommendation the rule before the fallback to models
+folding within the validity margin would make on the same rows. `worse(seen)`: the same judgement over the image cells where corners were seen (interpolation).
+"""
+import json, sys, math
+from collections import Counter, defaultdict
+import numpy as np
+
+PINHOLE = {'brown-conrady4', 'brown-conrady5', 'rational8', 'thin-prism12'}
+SHORT = {'brown-conrady4': 'bc4', 'brown-conrady5': 'bc5', 'kannala-brandt4': 'kb4',
+         'rational8': 'rat8', 'thin-prism12': 'tp12', None: 'none'}
+
+
+ORDER = ['brown-conrady4', 'brown-conrady5', 'kannala-brandt4', 'rational8', 'thin-prism12']
+
+
+def rule_before(rows):
+    """The rule before the fallback to models folding within the margin (calib before this
+    bench): the fewest parameters among the valid models within 2% of the best valid one."""
+    valid = [m for m in ORDER if m in rows and rows[m]['valid'] and rows[m]['cv'] is not None]
+    if not valid:
+        return None
+    best = min(rows[m]['cv'] for m in valid)
+    within = [m for m in valid if rows[m]['cv'] <= best * 1.02]
+    return min(within, key=lambda m: (rows[m]['params'], ORDER.index(m)))
+
+
+def worse(rec, key, rule=None):
+    """(recommended error, true model's fit error, is worse) by `key` ('grid_rms', 'covered_rms');
+    the recommendation of the binary, or of `rule(rows)`."""
+    rows = rec['rows']
+    m = rec.get('recommended') if rule is None else rule(rows)
+    t = rows.get(rec['model'], {}).get(key)
+    if m is None or t is None:
+        return None
+    e = rows[m].get(key)
+    if e is None:
+        return None
+    return e, t, (e > 2 * t and e > t + rec['noise'])
+
+
+def main(path):
+    recs = [json.loads(l) for l in open(path)]
+    out = []
+    p = out.append
+    lenses = list(dict.fromkeys(r['lens'] for r in recs))
+    bad = [r for r in recs if r.get('compare_rc') != 0 or 'synth_error' in r]
+    nan = [r for r in recs if any(isinstance(v, float) and math.isnan(v)
+                                  for row in r.get('rows', {}).values() for v in (row.get('cv'), row.get('rms')) if v is not None)]
+    mism = [r for r in recs for m, row in r.get('rows', {}).items()
+            if row.get('rms') is not None and row.get('fit_rms') is not None and abs(row['rms'] - row['fit_rms']) > 1e-9]
+    p(f'{len(recs)} cases; compare-models failed (exit code) on {len(bad)}; NaN in a row on {len(nan)}; '
+      f'row RMS differing from `calib single --model` on {len(mism)}')
+    p('')
+    p('Recommended models, and the recommended fit against the true model\'s fit over the image '
+      '(worse: error > 2x and > +noise; ratio = recommended / true fit, grid RMS px)')
+    p(f"{'lens':<16} {'cases':>5}  {'recommended (count)':<40} {'none':>4} {'worse':>5} {'worse(seen)':>11} {'median ratio':>12} {'max ratio':>10} {'worse, rule before':>18}")
+    for tilt_low in (False, True):
+        p('-- tilt 45 deg' if not tilt_low else '-- tilt 10 and 5 deg (8 and 15 views, 0.3 px)')
+        for lens in lenses:
+            rs = [r for r in recs if r['lens'] == lens and (r['tilt'] < 45) == tilt_low and 'rows' in r]
+            if not rs:
+                continue
+            c = Counter(SHORT[r.get('recommended')] for r in rs)
+            rec_s = ' '.join(f'{k}:{v}' for k, v in sorted(c.items(), key=lambda kv: -kv[1]) if k != 'none')
+            j = [worse(r, 'grid_rms') for r in rs]
+            js = [worse(r, 'covered_rms') for r in rs]
+            ratios = [a / b for a, b, _ in filter(None, j) if b > 0]
+            p(f"{lens:<16} {len(rs):>5}  {rec_s:<40} {c.get('none', 0):>4} {sum(1 for x in j if x and x[2]):>5} "
+              f"{sum(1 for x in js if x and x[2]):>11} {np.median(ratios) if ratios else float('nan'):>12.2f} {max(ratios) if ratios else float('nan'):>10.3g} "
+              f"{sum(1 for r in rs if (x := worse(r, 'grid_rms', rule_before)) and x[2]):>18}")
+    p('')
+    p('All tilts (docs/camera-model.md, "Choosing a model"):')
+    p('')
+    p('| true lens | cases | recommended | worse | worse, rule before |')
+    p('|---|---|---|---|---|')
+    for lens in lenses:
+        rs = [r for r in recs if r['lens'] == lens and 'rows' in r]
+        c = Counter(SHORT[r.get('recommended')] for r in rs)
+        rec_s = ', '.join(f'{k} {v}' for k, v in sorted(c.items(), key=lambda kv: -kv[1]))
+        w = sum(1 for r in rs if (x := worse(r, 'grid_rms')) and x[2])
+        wb = sum(1 for r in rs if (x := worse(r, 'grid_rms', rule_before)) and x[2])
+        p(f'| {lens} | {len(rs)} | {rec_s} | {w} | {wb} |')
+    p('')
+    p('Worse recommendations by views and noise (tilt 45): worse / cases')
+    hdr = f"{'lens':<16}" + ''.join(f'{f"{v}v {n}px":>11}' for v in (5, 8, 15, 30) for n in (0.1, 0.3, 1.0))
+    p(hdr)
+    for lens in lenses:
+        line = f'{lens:<16}'
+        for v in (5, 8, 15, 30):
+            for n in (0.1, 0.3, 1.0):
+                rs = [r for r in recs if r['lens'] == lens and r['tilt'] == 45 and r['views'] == v and r['noise'] == n and 'rows' in r]
+                w = sum(1 for r in rs if (x := worse(r, 'grid_rms')) and x[2])
+                none = sum(1 for r in rs if r.get('recommended') is None)
+                line += f"{f'{w}/{len(rs)}' + (f' n{none}' if none else ''):>11}"
+        p(line)
+    p('(nN: N cases without a recommendation)')
+    p('')
+    fish_before = [r for r in recs if r['model'] == 'kannala-brandt4' and 'rows' in r and rule_before(r['rows']) in PINHOLE]
+    p(f"fisheye lenses with a pinhole model recommended by the rule before: {len(fish_before)}, by lens "
+      + ' '.join(f'{k}:{v}' for k, v in Counter(r['lens'] for r in fish_before).items()))
+    fish_pin = [r for r in recs if r['model'] == 'kannala-brandt4' and r.get('recommended') in PINHOLE]
+    p(f'fisheye lenses with a pinhole model recommended: {len(fish_pin)} of '
+      f"{sum(1 for r in recs if r['model'] == 'kannala-brandt4')}: "
+      + ', '.join(f"{r['lens']} {r['views']}v {r['noise']}px t{r['tilt']} s{r['seed']} -> {SHORT[r['recommended']]}" for r in fish_pin[:8]))
+    p('')
+    # Noise of the cross-validated RMS: how far the TRUE model's CV lies above the best CV, and
+    # how often a model within the tolerance is clearly worse over the image.
+    p('Cross-validated RMS of the true model relative to the best one (cv_true / cv_best - 1), median and 90th percentile, tilt 45:')
+    for v in (5, 8, 15, 30):
+        line = f'  {v:>2} views:'
+        for n in (0.1, 0.3, 1.0):
+            xs = []
+            for r in recs:
+                if r['views'] != v or r['noise'] != n or r['tilt'] != 45 or 'rows' not in r:
+                    continue
+                cvs = [row['cv'] for row in r['rows'].values() if row.get('cv') is not None]
+                ct = r['rows'][r['model']].get('cv')
+                if cvs and ct is not None:
+                    xs.append(ct / min(cvs) - 1)
+            if xs:
+                line += f'  {n} px: {100 * np.median(xs):.1f}% / {100 * np.percentile(xs, 90):.1f}%'
+        p(line)
+    p('')
+    p('Noise of the cross-validated RMS between two adequate models: brown-conrady5 against brown-conrady4 on the '
+      'brown-conrady4 lenses (cv_bc5 / cv_bc4 - 1), median and 90th percentile of its absolute value, tilt 45:')
+    for v in (5, 8, 15, 30):
+        line = f'  {v:>2} views:'
+        for n in (0.1, 0.3, 1.0):
+            xs = [abs(r['rows']['brown-conrady5']['cv'] / r['rows']['brown-conrady4']['cv'] - 1) for r in recs
+                  if r['model'] == 'brown-conrady4' and r['views'] == v and r['noise'] == n and r['tilt'] == 45
+                  and 'rows' in r and r['rows']['brown-conrady5'].get('cv') and r['rows']['brown-conrady4'].get('cv')]
+            if xs:
+                line += f'  {n} px: {100 * np.median(xs):.1f}% / {100 * np.percentile(xs, 90):.1f}% (n={len(xs)})'
+        p(line)
+    p('')
+    gaps = [r for r in recs if r.get('gap_to_best_fit') is not None and r['gap_to_best_fit'] > 0.02]
+    p(f"gap_to_best_fit above 2% (the 'no model both fits' message): {len(gaps)} cases; "
+      + 'by lens ' + ' '.join(f'{k}:{v}' for k, v in Counter(r['lens'] for r in gaps).items()))
+    nonerec = [r for r in recs if 'rows' in r and r.get('recommended') is None]
+    msgs = Counter(r['compare_table'].strip().splitlines()[-1][:90] for r in nonerec)
+    p(f'no recommendation: {len(nonerec)} cases: ' + '; '.join(f'{v}x "{k}"' for k, v in msgs.items()))
+    p('')
+    p('Time of --compare-models (s, one thread): median / max by views')
+    for v in (5, 8, 15, 30):
+        ts = [r['compare_seconds'] for r in recs if r['views'] == v and 'compare_seconds' in r]
+        tf = [r['compare_seconds'] for r in recs if r['views'] == v and 'compare_seconds' in r and r['model'] == 'kannala-brandt4']
+        p(f'  {v:>2} views: {np.median(ts):.2f} / {max(ts):.2f}  (fisheye lenses {np.median(tf):.2f} / {max(tf):.2f})')
+    print('\n'.join(out))
+
+
+if __name__ == '__main__':
+    main(sys.argv[1])
