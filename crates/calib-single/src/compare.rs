@@ -314,8 +314,8 @@ impl ModelComparison {
                 (Some(best), Some(gap)) if gap > CV_TOLERANCE => {
                     let _ = writeln!(
                         out,
-                        "recommended: {m}, the best of the models valid over the image, but its cross-validated RMS is {:.0}% above {best}'s, which folds inside the image: no model both fits this lens and stays one-to-one over the image. Add views with the board near the image corners (they constrain the richer model where it folds), and until then trust {m} only as far as its cross-validated error",
-                        100.0 * gap
+                        "recommended: {m}, the best of the models valid over the image, but its cross-validated RMS is {} above {best}'s, which folds inside the image: no model both fits this lens and stays one-to-one over the image. Add views with the board near the image corners (they constrain the richer model where it folds), and until then trust {m} only as far as its cross-validated error",
+                        gap_percent(gap)
                     );
                 }
                 _ => {
@@ -347,5 +347,33 @@ impl ModelComparison {
             }
         }
         out
+    }
+}
+
+/// A gap above [`CV_TOLERANCE`] as a percentage that never reads as within it: whole percents
+/// from 10%, else one decimal, rounded up (a gap of 2.004% printed as "2%" read as inside the
+/// 2% tolerance).
+fn gap_percent(gap: f64) -> String {
+    let percent = 100.0 * gap;
+    if percent >= 10.0 {
+        format!("{percent:.0}%")
+    } else {
+        // The 1e-9 keeps a gap that is a tenth of a percent up to rounding (3.4000000000000004)
+        // at that tenth.
+        format!("{:.1}%", (percent * 10.0 - 1e-9).ceil() / 10.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A gap just above the tolerance must not print as the tolerance itself.
+    #[test]
+    fn a_gap_above_the_tolerance_never_prints_as_within_it() {
+        assert_eq!(gap_percent(CV_TOLERANCE + 4e-5), "2.1%");
+        assert_eq!(gap_percent(0.034), "3.4%");
+        assert_eq!(gap_percent(0.057), "5.7%");
+        assert_eq!(gap_percent(0.25), "25%");
     }
 }
