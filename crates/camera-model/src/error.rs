@@ -39,6 +39,13 @@ pub enum CameraModelError {
     /// The distortion map is singular at the current estimate (its Jacobian is not invertible).
     #[error("distortion map is singular near the point being undistorted")]
     UndistortSingular,
+    /// The pixel's only preimages found lie beyond a fold or a pole of the distortion map, not on
+    /// the branch that starts at the principal point: the pixel is outside the region where the
+    /// lens model is valid (`crate::validity`), and no direction can be trusted for it.
+    #[error(
+        "the pixel lies beyond the region where the lens model is one-to-one (its only undistorted points lie past a fold or pole of the distortion)"
+    )]
+    UndistortBeyondValidRegion,
     /// The undistorted point is the image of no direction (beyond the projection's range, e.g. a
     /// fisheye angle of 180 degrees or more).
     #[error("the undistorted point lies outside the projection's range")]

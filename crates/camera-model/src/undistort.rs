@@ -10,7 +10,7 @@ use crate::camera::Camera;
 use crate::distortion::LensDistortion;
 use crate::error::CameraModelError;
 use crate::projection::Projection;
-use nalgebra::{Unit, Vector2, Vector3};
+use nalgebra::{Matrix2, Unit, Vector2, Vector3};
 
 /// Settings of the iterative undistortion.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,11 +31,43 @@ impl Default for UndistortOptions {
     }
 }
 
-/// The ideal normalized point `n` with `distortion.distort(n) == target`.
+/// Points checked between the principal point and a solution by [`on_valid_branch`].
+const BRANCH_SAMPLES: usize = 16;
+/// Steps of the continuation from the principal point (`target` scaled by `i / STAGES`) tried
+/// when Newton's method from the target itself ends off the valid branch.
+const CONTINUATION_STAGES: usize = 16;
+
+/// True when `n` lies on the branch of the distortion map that starts at the principal point:
+/// inside the rational denominator's first root, with a positive Jacobian determinant and
+/// denominator at `n` and at [`BRANCH_SAMPLES`] points on the way to it.
+fn on_valid_branch<D: LensDistortion>(distortion: &D, n: &Vector2<f64>) -> bool {
+    if distortion
+        .pole_radius()
+        .is_some_and(|pole| n.norm() >= pole)
+    {
+        return false;
+    }
+    (1..=BRANCH_SAMPLES).all(|i| {
+        let m = n * (i as f64 / BRANCH_SAMPLES as f64);
+        let (_, jacobian, _) = distortion.distort_with_jacobians(&m);
+        jacobian.determinant() > 0.0 && distortion.denominator(&m).is_none_or(|q| q > 0.0)
+    })
+}
+
+/// The ideal normalized point `n` with `distortion.distort(n) == target`, on the branch of the
+/// distortion map that starts at the principal point (where the model is valid,
+/// `crate::validity`).
 ///
-/// Errors: a non-finite target, a singular distortion Jacobian on the way, or no convergence
-/// within `options.max_iterations` (typical when `target` lies beyond the radius where the model
-/// folds back, e.g. far outside the calibrated image area).
+/// Newton's method starts at `target`. Near a fold or a pole of a fitted model it can converge to
+/// a second preimage beyond it (a direction the lens does not image there); such a solution is
+/// refused, and the branch is then followed from the principal point (`target` scaled up in
+/// [`CONTINUATION_STAGES`] steps, each solved from the last).
+///
+/// Errors: a non-finite target; a singular distortion Jacobian on the way or no convergence within
+/// `options.max_iterations` (typical when `target` lies beyond the radius where the model folds
+/// back, e.g. far outside the calibrated image area); or
+/// [`CameraModelError::UndistortBeyondValidRegion`] when every solution found lies beyond a fold
+/// or pole.
 pub fn undistort_normalized<D: LensDistortion>(
     distortion: &D,
     target: &Vector2<f64>,
@@ -46,8 +78,48 @@ pub fn undistort_normalized<D: LensDistortion>(
             what: "point to undistort",
         });
     }
+    let direct = newton(distortion, target, *target, options, |_, _| true);
+    if let Ok(n) = direct
+        && on_valid_branch(distortion, &n)
+    {
+        return Ok(n);
+    }
+    // Each stage's steps stay on the branch: next to a pole the map crowds the outer pixels into
+    // a thin band of directions, and a full step would leave it for the far side of the pole.
+    let pole = distortion.pole_radius().unwrap_or(f64::INFINITY);
+    let on_branch = |m: &Vector2<f64>, jacobian: &Matrix2<f64>| {
+        m.norm() < pole
+            && jacobian.determinant() > 0.0
+            && distortion.denominator(m).is_none_or(|q| q > 0.0)
+    };
+    let mut n = Vector2::zeros();
+    for stage in 1..=CONTINUATION_STAGES {
+        let scaled = target * (stage as f64 / CONTINUATION_STAGES as f64);
+        n = match newton(distortion, &scaled, n, options, on_branch) {
+            Ok(n) => n,
+            // Newton from the target found a solution, off the branch: say so.
+            Err(_) if direct.is_ok() => return Err(CameraModelError::UndistortBeyondValidRegion),
+            Err(e) => return Err(e),
+        };
+    }
+    if on_valid_branch(distortion, &n) {
+        Ok(n)
+    } else {
+        Err(CameraModelError::UndistortBeyondValidRegion)
+    }
+}
+
+/// Newton's method for `distortion(n) = target` from `start`, halving steps that do not reduce
+/// the error or land where `admissible(point, jacobian)` is false.
+fn newton<D: LensDistortion>(
+    distortion: &D,
+    target: &Vector2<f64>,
+    start: Vector2<f64>,
+    options: &UndistortOptions,
+    admissible: impl Fn(&Vector2<f64>, &Matrix2<f64>) -> bool,
+) -> Result<Vector2<f64>, CameraModelError> {
     let tolerance = options.tolerance * target.norm().max(1.0);
-    let mut n = *target;
+    let mut n = start;
     let (d, mut jac, _) = distortion.distort_with_jacobians(&n);
     let mut error = d - target;
     let mut error_norm = error.norm();
@@ -71,7 +143,7 @@ pub fn undistort_normalized<D: LensDistortion>(
             let (cd, cjac, _) = distortion.distort_with_jacobians(&candidate);
             let candidate_error = cd - target;
             let candidate_norm = candidate_error.norm();
-            if candidate_norm < error_norm {
+            if candidate_norm < error_norm && admissible(&candidate, &cjac) {
                 n = candidate;
                 jac = cjac;
                 error = candidate_error;
@@ -215,10 +287,75 @@ mod tests {
             matches!(
                 err,
                 Err(CameraModelError::UndistortNotConverged { .. }
-                    | CameraModelError::UndistortSingular)
+                    | CameraModelError::UndistortSingular
+                    | CameraModelError::UndistortBeyondValidRegion)
             ),
             "{err:?}"
         );
+    }
+
+    /// Two fits from `benches/validity/run.sh` (a brown-conrady5 fit of a strong barrel lens,
+    /// fx 280, folding 237 px from the principal point, and a kannala-brandt4 fit of a 4000x3000
+    /// fisheye folding 2447 px out) and pixels inside their valid radius (216 and 2420 px), for
+    /// which Newton's method from the pixel itself converged to the preimage beyond the fold
+    /// (normalized radius 2.31; angle 2.24 rad against a fold at about 1.7): a direction the lens
+    /// does not image there, returned without complaint. The answer must be the preimage on the
+    /// branch from the principal point: the segment to it keeps a positive Jacobian determinant
+    /// (checked at 1000 points, finer than the solver's own 16) and it maps back to the pixel.
+    /// Pixels beyond the fold have no such preimage and are an error.
+    #[test]
+    fn undistortion_stays_on_the_branch_that_starts_at_the_principal_point() {
+        use crate::distortion::{BrownConrady5, KannalaBrandt4};
+        use crate::projection::Equidistant;
+        let barrel = Camera::new(
+            Intrinsics::new(
+                280.55019901732516,
+                280.60316313602993,
+                319.89143715955197,
+                240.01324637972672,
+            ),
+            BrownConrady5::new([
+                -0.4511378763334498,
+                0.12171886617066863,
+                -1.2586340172812175e-05,
+                -0.00023553245603699592,
+                -0.011352107501354205,
+            ]),
+        );
+        let fisheye = Camera::<KannalaBrandt4, Equidistant>::from_parts(
+            Intrinsics::new(
+                1099.5923514138656,
+                1099.5313261078015,
+                1999.9197849705856,
+                1499.3578699493182,
+            ),
+            KannalaBrandt4::new([
+                0.0515607421200564,
+                -0.012090225420239005,
+                0.0043360862872601985,
+                -0.0008178283931956366,
+            ]),
+        );
+        let options = UndistortOptions::default();
+        fn check<D: LensDistortion, P: Projection>(camera: &Camera<D, P>, pixel: Vector2<f64>) {
+            let n = camera
+                .undistort_pixel(&pixel, &UndistortOptions::default())
+                .unwrap();
+            let back = camera.intrinsics.to_pixel(&camera.distortion.distort(&n));
+            assert!((back - pixel).norm() < 1e-9, "{pixel:?}: {back:?}");
+            let on_branch = (1..=1000).all(|i| {
+                let m = n * (i as f64 / 1000.0);
+                camera.distortion.distort_with_jacobians(&m).1.determinant() > 0.0
+            });
+            assert!(on_branch, "{pixel:?}: {n:?} lies beyond the fold");
+        }
+        check(&barrel, Vector2::new(216.99375000000003, 429.7694444444445));
+        check(&barrel, Vector2::new(422.0062500000001, 429.7694444444445));
+        check(&fisheye, Vector2::new(74.98124999999996, 33.32222222222222));
+        check(&fisheye, Vector2::new(3924.01875, 33.32222222222222));
+        // 300 px from the principal point, beyond the barrel fit's fold (237 px): an error.
+        let beyond = Vector2::new(319.89 + 300.0, 240.01);
+        assert!(barrel.undistort_pixel(&beyond, &options).is_err());
     }
 
     #[test]
