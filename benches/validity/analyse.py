@@ -76,6 +76,22 @@ def pole_t(model, k):
     return min(real, default=math.inf)
 
 
+def radial_first_failure(model, k, f):
+    """For a disagreement: the radial map r -> r c(r) alone (tangential terms left out), evaluated
+    at 3e6 radii up to 3 (pinhole) or pi (fisheye), which resolves bands far thinner than the 2-D
+    grid: the pixel radius (at focal length f) where it first stops increasing, its denominator
+    vanishes or its area magnification passes the bound; inf if nowhere."""
+    r = np.linspace(1e-6, math.pi * 0.999 if model == 'kannala-brandt4' else 3.0, 3_000_001)
+    radial = k if model == 'kannala-brandt4' else np.concatenate([k[:2], [0, 0], k[4:8], [0, 0, 0, 0]])
+    xd, _, den = distort(model, radial, r, np.zeros_like(r))
+    slope = np.gradient(xd, r)
+    bad = (den <= 0) | (slope <= 0) | (xd / r * slope > MAX_AREA_MAGNIFICATION) | ~np.isfinite(xd)
+    if not bad.any():
+        return math.inf
+    i = max(int(np.argmax(bad)) - 1, 0)
+    return f * xd[i]
+
+
 def rect_norm(px, py, cx, cy, w, h):
     """max over axes of the offset from the principal point over the border's offset that way:
     1 on the image border (pixel centres 0..w-1), 1.05 on the checked margin."""
@@ -233,6 +249,8 @@ def analyse(probe, path):
         problems.append('radius off')
     if undist_fail or wrong_branch or bad_roundtrip:
         problems.append('undistortion')
+    if any(p.startswith(('false', 'radius found')) for p in problems):
+        problems.append(f"1-D radial map: first failure {radial_first_failure(model, k, min(fx, fy)):.0f} px")
     return dict(name=path.split('/')[-1].removesuffix('.result.json'), model=model, size=f'{w}x{h}',
                 rep_radius=rep_radius, bf_radius=bf_radius, image_radius=reported['image_radius_px'],
                 rust_cover=rust_cover, bf_cover=min(bf_cover, range_cover), covers=reported['covers_image'],
