@@ -5,6 +5,7 @@ use crate::gray::{GrayView, ImageF};
 use crate::grid::{self, GrowParams, P};
 use crate::label;
 use crate::refine::{self, SaddleFit};
+use crate::symmetry;
 use crate::{Board, DetectError, DetectOptions, Detection, Refinement};
 
 /// Smallest side, in pixels, of an image that can be searched.
@@ -278,6 +279,12 @@ fn finish(
 ) -> Result<Detection, DetectError> {
     let (cols, rows) = (board.cols, board.rows);
     let sp = spacings(&pts, cols, rows);
+    let mut sorted = sp.clone();
+    sorted.sort_by(f64::total_cmp);
+    let med = sorted[sorted.len() / 2];
+    // The blurred board region the symmetry check reads: the saddle refinement's own (its
+    // blur and window), or one made with the default refinement's parameters.
+    let mut blurred: Option<(ImageF, f64, f64, usize)> = None;
     match opts.refinement {
         Refinement::None => {}
         Refinement::Gradient {
@@ -300,9 +307,6 @@ fn finish(
             max_blur,
             max_window,
         } => {
-            let mut sorted = sp.clone();
-            sorted.sort_by(f64::total_cmp);
-            let med = sorted[sorted.len() / 2];
             let sigma = (blur * med).clamp(0.7, max_blur.max(0.7));
             let r = ((window * med).round() as usize).clamp(2, max_window.max(2));
             // Blur only the board's bounding box (with room for the fit and the kernel).
@@ -315,9 +319,25 @@ fn finish(
                     *p = [q[0] + ox, q[1] + oy];
                 }
             }
+            blurred = Some((img, ox, oy, r));
         }
     }
     label::check_consistency(&pts, cols, rows, opts.max_grid_deviation, 1.0)?;
+    let (img, ox, oy, r) = blurred.unwrap_or_else(|| {
+        let sigma = (0.1 * med).clamp(0.7, 1.5);
+        let r = ((0.2 * med).round() as usize).clamp(2, 4);
+        let margin = (r as f64 + 3.0 * sigma + 4.0).ceil();
+        let (region, ox, oy) = board_region(view, &pts, margin);
+        (region.blurred(sigma), ox, oy, r)
+    });
+    let local: Vec<P> = pts.iter().map(|p| [p[0] - ox, p[1] - oy]).collect();
+    if let Some((index, asymmetry, limit)) = symmetry::worst_asymmetric(&img, &local, r) {
+        return Err(DetectError::DisturbedCorner {
+            index,
+            asymmetry,
+            limit,
+        });
+    }
     if let Some(d) = opts.joint_warp_degree
         && let Some(q) = crate::warp::smooth(&pts, cols, rows, d)
     {

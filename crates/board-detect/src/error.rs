@@ -120,6 +120,25 @@ pub enum DetectError {
     #[error("ambiguous orientation: {0}")]
     AmbiguousOrientation(String),
 
+    /// A full grid was found, but one corner is not a clean crossing of two edges: the image
+    /// around it is far from point-symmetric (its asymmetry, the RMS difference between the
+    /// pixels at `+d` and `-d` from it over its refinement window divided by the window's
+    /// contrast, is above `limit`: 8 times the board's median corner, and at least 0.06). A
+    /// shadow edge, the rim of a glare patch or an occluder runs through it, and pulls the
+    /// refined corner off the true crossing (by 1-4 px on rendered shadows) where the grid's
+    /// geometry alone does not show it; the image is refused rather than give that corner.
+    #[error(
+        "corner {index} is not a clean crossing (asymmetry {asymmetry:.2}, limit {limit:.2}): a shadow edge, glare or an occluder runs through it"
+    )]
+    DisturbedCorner {
+        /// Row-major index of the most asymmetric corner.
+        index: usize,
+        /// Its asymmetry (a fraction of its window's contrast; 0 for a perfect crossing).
+        asymmetry: f64,
+        /// The limit it exceeded.
+        limit: f64,
+    },
+
     /// A full grid was found, but its geometry is not that of a planar board seen by a
     /// camera: a corner deviates from the position its neighbours predict.
     #[error(

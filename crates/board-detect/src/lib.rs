@@ -71,6 +71,7 @@ mod gray;
 mod grid;
 mod label;
 mod refine;
+mod symmetry;
 mod warp;
 
 pub use draw::{draw_detection, write_overlay_png};

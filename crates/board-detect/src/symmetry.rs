@@ -1,0 +1,132 @@
+//! Point-symmetry check of the refined corners.
+//!
+//! Two straight edges crossing, blurred by any point-symmetric blur, give an image that is
+//! point-symmetric about the crossing: `I(q + d) = I(q - d)`, under any perspective (the
+//! edges stay straight) and to first order under lens distortion and smooth lighting. A
+//! shadow edge, the rim of a glare or an occluder running through a corner breaks that
+//! symmetry, and pulls every intensity-based corner estimate (the saddle fit's, OpenCV's
+//! gradient orthogonality) off the crossing by up to several pixels while the grid's
+//! geometry check still passes. Such a corner is found by its asymmetry being far above the
+//! board's typical one (which noise, JPEG and lighting set, corner by corner alike).
+
+use crate::gray::ImageF;
+use crate::grid::P;
+
+/// Asymmetry of a corner above which it is flagged, relative to the board's median
+/// asymmetry. Measured (`docs/board-detect.md`, "Photographic defects"): on the 113 bundled
+/// photographs the largest corner is at most 4.8 times its board's median; a shadow edge
+/// through a corner that moves it by more than 1 px gives 20 to 200 times.
+pub(crate) const RELATIVE_LIMIT: f64 = 8.0;
+
+/// Smallest asymmetry flagged, whatever the board's median (a fraction of the corner's
+/// contrast). Clean rendered corners measure 0.002-0.01, the bundled photographs' corners up
+/// to 0.17 (below 4.8 times their board's median), shadow-displaced corners 0.09-0.5.
+pub(crate) const ABSOLUTE_LIMIT: f64 = 0.06;
+
+/// RMS of `I(q + d) - I(q - d)` over the offsets `d` of the `(2r + 1)^2` window (integer
+/// offsets, bilinear samples of the blurred image `img`), divided by the window's contrast
+/// (90th minus 10th percentile of its samples, at least 1 grey level). 0 for a perfect
+/// X-junction; `None` when the window leaves the image.
+pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
+    let ri = r as isize;
+    let rf = r as f64;
+    if q[0] - rf < 0.0
+        || q[1] - rf < 0.0
+        || q[0] + rf > (img.w - 1) as f64
+        || q[1] + rf > (img.h - 1) as f64
+    {
+        return None;
+    }
+    let mut samples = Vec::with_capacity((2 * r + 1).pow(2));
+    let mut sum2 = 0.0f64;
+    let mut n = 0usize;
+    for dy in -ri..=ri {
+        for dx in -ri..=ri {
+            // Each pair once: the half plane (dy > 0) or (dy == 0, dx > 0).
+            if dy < 0 || (dy == 0 && dx <= 0) {
+                continue;
+            }
+            let (fx, fy) = (dx as f64, dy as f64);
+            let a = img.sample(q[0] + fx, q[1] + fy) as f64;
+            let b = img.sample(q[0] - fx, q[1] - fy) as f64;
+            sum2 += (a - b) * (a - b);
+            n += 1;
+            samples.push(a);
+            samples.push(b);
+        }
+    }
+    samples.sort_by(f64::total_cmp);
+    let pct = |f: f64| samples[((samples.len() - 1) as f64 * f).round() as usize];
+    let contrast = (pct(0.9) - pct(0.1)).max(1.0);
+    Some((sum2 / n as f64).sqrt() / contrast)
+}
+
+/// The most asymmetric corner, when it is asymmetric enough to have been pulled off its
+/// crossing: `(index, asymmetry, limit)`. `pts` are in `img`'s pixel coordinates; corners
+/// whose window leaves the image are not judged.
+pub(crate) fn worst_asymmetric(img: &ImageF, pts: &[P], r: usize) -> Option<(usize, f64, f64)> {
+    let a: Vec<Option<f64>> = pts.iter().map(|&q| asymmetry(img, q, r)).collect();
+    let mut known: Vec<f64> = a.iter().flatten().copied().collect();
+    if known.is_empty() {
+        return None;
+    }
+    known.sort_by(f64::total_cmp);
+    let median = known[known.len() / 2];
+    let limit = (RELATIVE_LIMIT * median).max(ABSOLUTE_LIMIT);
+    a.iter()
+        .enumerate()
+        .filter_map(|(i, v)| v.map(|v| (i, v)))
+        .filter(|&(_, v)| v > limit)
+        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .map(|(i, v)| (i, v, limit))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An ideal X-junction at `c`, integrated over each pixel (16x16 samples) and blurred, optionally with a shadow
+    /// darkening the half plane `x > c.x + shadow_offset` by `dark`.
+    fn junction(c: P, shadow: Option<(f64, f64)>) -> ImageF {
+        let (w, h) = (41usize, 41usize);
+        let mut data = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for x in 0..w {
+                let mut v = 0.0;
+                for sy in 0..16 {
+                    for sx in 0..16 {
+                        let px = x as f64 + (sx as f64 + 0.5) / 16.0 - 0.5 - c[0];
+                        let py = y as f64 + (sy as f64 + 0.5) / 16.0 - 0.5 - c[1];
+                        let mut i = if (px > 0.0) == (py > 0.0) {
+                            40.0
+                        } else {
+                            210.0
+                        };
+                        if let Some((off, dark)) = shadow
+                            && px > off
+                        {
+                            i *= 1.0 - dark;
+                        }
+                        v += i / 256.0;
+                    }
+                }
+                data.push(v as f32);
+            }
+        }
+        ImageF { w, h, data }.blurred(1.5)
+    }
+
+    /// A clean junction is symmetric about its crossing (asymmetry near 0); a 50 % shadow
+    /// edge through it is not; a shadow edge 8 px away leaves the window untouched.
+    #[test]
+    fn shadow_edge_through_a_corner_breaks_its_symmetry() {
+        let c = [20.3, 19.8];
+        let clean = asymmetry(&junction(c, None), c, 3).unwrap();
+        assert!(clean < 0.01, "clean {clean}");
+        let through = asymmetry(&junction(c, Some((0.0, 0.5))), c, 3).unwrap();
+        assert!(through > 0.2, "through {through}");
+        let far = asymmetry(&junction(c, Some((8.0, 0.5))), c, 3).unwrap();
+        assert!(far < 0.01, "far {far}");
+        assert!(asymmetry(&junction(c, None), [1.0, 20.0], 3).is_none());
+    }
+}

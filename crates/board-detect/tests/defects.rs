@@ -1,0 +1,112 @@
+//! Photographic defects on rendered boards (docs/board-detect.md, "Photographic defects"):
+//! a shadow edge through a corner must not give a silently displaced corner.
+
+use board_detect::synth::Scene;
+use board_detect::{Board, DetectError, DetectOptions, GrayView, detect};
+
+/// Multiplies the image by a shadow: the side of the line through `p` with direction angle
+/// `angle` (radians) where the normal `(-sin, cos)` points is darkened by the fraction
+/// `dark`, with a 0.6 px (logistic scale) penumbra. Photometric: the corners do not move.
+fn shade(pixels: &mut [u8], width: usize, p: [f64; 2], angle: f64, dark: f64) {
+    let (nx, ny) = (-angle.sin(), angle.cos());
+    for (i, v) in pixels.iter_mut().enumerate() {
+        let (x, y) = ((i % width) as f64, (i / width) as f64);
+        let side = (x - p[0]) * nx + (y - p[1]) * ny;
+        let s = 1.0 - dark / (1.0 + (-side / 0.6).clamp(-50.0, 50.0).exp());
+        *v = (*v as f64 * s).round().clamp(0.0, 255.0) as u8;
+    }
+}
+
+fn max_error(found: &[[f64; 2]], truth: &[[f64; 2]]) -> f64 {
+    found
+        .iter()
+        .zip(truth)
+        .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]))
+        .fold(0.0, f64::max)
+}
+
+/// A shadow edge (50 % and 70 % darker) running exactly through one corner, at three angles
+/// to the board's edges, for three interior corners of two poses: either the board is
+/// refused (the corner is not a clean crossing) or every corner is within 0.5 px of the truth.
+/// Before the symmetry check these 18 images gave corners up to 2 px off the truth with no
+/// refusal (2.01 px for corner 20 of pose 0 at 0.35 rad: the saddle fit follows the shadow's
+/// edge, and the grid's geometry check allows 0.15 of a square); now all are refused, 12 as
+/// `DisturbedCorner`, the others as partial boards. 0.5 px: the refined corners of these scenes without a shadow
+/// are within 0.15 px (`synthetic.rs`); a corner near, but not on, the shadow edge is pulled
+/// by up to a few tenths of a pixel.
+#[test]
+fn shadow_edge_through_a_corner_is_refused_not_returned_displaced() {
+    let poses = [
+        ([0.2, -0.3, 0.1], [-3.5, -2.0, 14.0]),
+        ([-0.4, 0.5, -0.3], [-4.0, -2.5, 17.0]),
+    ];
+    let board = Board::new(9, 6, 1.0).unwrap();
+    let (mut refused, mut disturbed, mut found) = (0, 0, 0);
+    for (k, (rotation, translation)) in poses.into_iter().enumerate() {
+        let scene = Scene {
+            rotation,
+            translation,
+            seed: 21 + k as u64,
+            ..Scene::default()
+        };
+        let clean = scene.render();
+        for corner in [20, 22, 31] {
+            let p = clean.corners[corner];
+            // The board's row direction at this corner, and angles across it.
+            let q = clean.corners[corner + 1];
+            let row = (q[1] - p[1]).atan2(q[0] - p[0]);
+            for (da, dark) in [(0.35, 0.5), (0.8, 0.7), (-0.6, 0.5)] {
+                let mut px = clean.pixels.clone();
+                shade(&mut px, scene.width, p, row + da, dark);
+                let view = GrayView::packed(&px, scene.width, scene.height).unwrap();
+                match detect(&view, &board, &DetectOptions::default()) {
+                    Ok(d) => {
+                        let e = max_error(&d.corners, &clean.corners);
+                        assert!(
+                            e < 0.5,
+                            "pose {k}, shadow through corner {corner} at {da} rad, {dark}: \
+                             a corner {e:.2} px off the truth was returned"
+                        );
+                        found += 1;
+                    }
+                    Err(DetectError::DisturbedCorner { .. }) => disturbed += 1,
+                    // The shadow can also cut the grid's growth (a partial board).
+                    Err(_) => refused += 1,
+                }
+            }
+        }
+    }
+    eprintln!("found {found}, refused as disturbed {disturbed}, otherwise {refused}");
+    assert!(disturbed > 0, "found {found}, disturbed {disturbed}");
+}
+
+/// A 50 % shadow edge along the middle of a row of squares (half a square from every corner)
+/// leaves every corner a clean crossing: the board is found, as accurate as without it.
+/// Tolerance 0.15 px: the bound of `corners_within_005_px_at_moderate_blur` for these scenes.
+#[test]
+fn shadow_edge_between_corner_rows_keeps_the_board() {
+    let scene = Scene {
+        seed: 31,
+        ..Scene::default()
+    };
+    let clean = scene.render();
+    let cols = scene.cols;
+    let mid = |c: usize| {
+        let (a, b) = (clean.corners[2 * cols + c], clean.corners[3 * cols + c]);
+        [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0]
+    };
+    let (p, q) = (mid(0), mid(cols - 1));
+    let mut px = clean.pixels.clone();
+    shade(
+        &mut px,
+        scene.width,
+        p,
+        (q[1] - p[1]).atan2(q[0] - p[0]),
+        0.5,
+    );
+    let view = GrayView::packed(&px, scene.width, scene.height).unwrap();
+    let board = Board::new(9, 6, 1.0).unwrap();
+    let d = detect(&view, &board, &DetectOptions::default()).expect("board refused");
+    let e = max_error(&d.corners, &clean.corners);
+    assert!(e < 0.15, "max corner error {e:.3} px");
+}
