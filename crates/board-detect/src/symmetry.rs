@@ -28,15 +28,25 @@ pub(crate) const ABSOLUTE_LIMIT: f64 = 0.06;
 /// (90th minus 10th percentile of its samples, at least 1 grey level). 0 for a perfect
 /// X-junction; `None` when the window leaves the image.
 pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
-    let ri = r as isize;
-    let rf = r as f64;
-    if q[0] - rf < 0.0
-        || q[1] - rf < 0.0
-        || q[0] + rf > (img.w - 1) as f64
-        || q[1] + rf > (img.h - 1) as f64
-    {
+    if !(q[0].is_finite() && q[1].is_finite()) {
         return None;
     }
+    let (x0, y0) = (q[0].floor(), q[1].floor());
+    let (fx, fy) = ((q[0] - x0) as f32, (q[1] - y0) as f32);
+    let ri = r as isize;
+    let (x0, y0) = (x0 as isize, y0 as isize);
+    let (w, h) = (img.w as isize, img.h as isize);
+    if x0 - ri < 0 || y0 - ri < 0 || x0 + ri + 1 >= w || y0 + ri + 1 >= h {
+        return None;
+    }
+    // Offsets are whole pixels, so every sample shares q's bilinear weights.
+    let at = |x: isize, y: isize| -> f32 {
+        let i = (y * w + x) as usize;
+        let (a, b) = (img.data[i], img.data[i + 1]);
+        let (c, d) = (img.data[i + img.w], img.data[i + img.w + 1]);
+        let top = a + fx * (b - a);
+        top + fy * (c + fx * (d - c) - top)
+    };
     let mut samples = Vec::with_capacity((2 * r + 1).pow(2));
     let mut sum2 = 0.0f64;
     let mut n = 0usize;
@@ -46,18 +56,20 @@ pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
             if dy < 0 || (dy == 0 && dx <= 0) {
                 continue;
             }
-            let (fx, fy) = (dx as f64, dy as f64);
-            let a = img.sample(q[0] + fx, q[1] + fy) as f64;
-            let b = img.sample(q[0] - fx, q[1] - fy) as f64;
+            let a = at(x0 + dx, y0 + dy) as f64;
+            let b = at(x0 - dx, y0 - dy) as f64;
             sum2 += (a - b) * (a - b);
             n += 1;
             samples.push(a);
             samples.push(b);
         }
     }
-    samples.sort_by(f64::total_cmp);
-    let pct = |f: f64| samples[((samples.len() - 1) as f64 * f).round() as usize];
-    let contrast = (pct(0.9) - pct(0.1)).max(1.0);
+    // Percentiles by selection (linear time: a full sort cost 0.1 ms per 54-corner board).
+    let rank = |f: f64| ((samples.len() - 1) as f64 * f).round() as usize;
+    let (lo, hi) = (rank(0.1), rank(0.9));
+    let p90 = *samples.select_nth_unstable_by(hi, f64::total_cmp).1;
+    let p10 = *samples[..hi].select_nth_unstable_by(lo, f64::total_cmp).1;
+    let contrast = (p90 - p10).max(1.0);
     Some((sum2 / n as f64).sqrt() / contrast)
 }
 
