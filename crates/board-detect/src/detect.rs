@@ -331,7 +331,9 @@ fn finish(
         (region.blurred(sigma), ox, oy, r)
     });
     let local: Vec<P> = pts.iter().map(|p| [p[0] - ox, p[1] - oy]).collect();
-    if let Some((index, asymmetry, limit)) = symmetry::worst_asymmetric(&img, &local, r) {
+    if med >= symmetry::MIN_SPACING
+        && let Some((index, asymmetry, limit)) = symmetry::worst_asymmetric(&img, &local, r)
+    {
         return Err(DetectError::DisturbedCorner {
             index,
             asymmetry,
