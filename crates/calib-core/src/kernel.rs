@@ -100,67 +100,49 @@ pub(crate) trait KernelWidth {
         P: Projection;
 }
 
-impl<const N: usize> KernelWidth for SMatrix<f64, 2, N> {
-    #[inline]
-    fn reference<D, P>(
-        camera: &Camera<D, P>,
-        pose: &DifferentiablePose,
-        view: &ViewInput<'_>,
-        gram: &mut GramBlocks<'_>,
-    ) -> Result<f64, usize>
-    where
-        D: LensDistortion<ParamJacobian = Self>,
-        P: Projection,
-    {
-        reference_rows::<D, P, AllParams<N>, N>(camera, pose, view, gram)
-    }
+/// The one implementation of [`KernelWidth`] for a Jacobian type whose rows carry the
+/// coefficients `$support` names, `$m` of them.
+macro_rules! kernel_width {
+    ([$($generics:tt)*] $jacobian:ty, $support:ty, $m:tt) => {
+        impl<$($generics)*> KernelWidth for $jacobian {
+            #[inline]
+            fn reference<D, P>(
+                camera: &Camera<D, P>,
+                pose: &DifferentiablePose,
+                view: &ViewInput<'_>,
+                gram: &mut GramBlocks<'_>,
+            ) -> Result<f64, usize>
+            where
+                D: LensDistortion<ParamJacobian = Self>,
+                P: Projection,
+            {
+                reference_rows::<D, P, $support, $m>(camera, pose, view, gram)
+            }
 
-    #[inline]
-    fn rig<D, P>(
-        camera: &Camera<D, P>,
-        pose: &DifferentiablePose,
-        rig: &DifferentiablePose,
-        view: &ViewInput<'_>,
-        gram: &mut GramBlocks<'_>,
-    ) -> Result<f64, usize>
-    where
-        D: LensDistortion<ParamJacobian = Self>,
-        P: Projection,
-    {
-        rig_rows::<D, P, AllParams<N>, N>(camera, pose, rig, view, gram)
-    }
+            #[inline]
+            fn rig<D, P>(
+                camera: &Camera<D, P>,
+                pose: &DifferentiablePose,
+                rig: &DifferentiablePose,
+                view: &ViewInput<'_>,
+                gram: &mut GramBlocks<'_>,
+            ) -> Result<f64, usize>
+            where
+                D: LensDistortion<ParamJacobian = Self>,
+                P: Projection,
+            {
+                rig_rows::<D, P, $support, $m>(camera, pose, rig, view, gram)
+            }
+        }
+    };
 }
 
-impl<S: RowSupport<M>, const N: usize, const M: usize> KernelWidth for RowSparseJacobian<S, N, M> {
-    #[inline]
-    fn reference<D, P>(
-        camera: &Camera<D, P>,
-        pose: &DifferentiablePose,
-        view: &ViewInput<'_>,
-        gram: &mut GramBlocks<'_>,
-    ) -> Result<f64, usize>
-    where
-        D: LensDistortion<ParamJacobian = Self>,
-        P: Projection,
-    {
-        reference_rows::<D, P, S, M>(camera, pose, view, gram)
-    }
-
-    #[inline]
-    fn rig<D, P>(
-        camera: &Camera<D, P>,
-        pose: &DifferentiablePose,
-        rig: &DifferentiablePose,
-        view: &ViewInput<'_>,
-        gram: &mut GramBlocks<'_>,
-    ) -> Result<f64, usize>
-    where
-        D: LensDistortion<ParamJacobian = Self>,
-        P: Projection,
-    {
-        rig_rows::<D, P, S, M>(camera, pose, rig, view, gram)
-    }
-}
+kernel_width!([const N: usize] SMatrix<f64, 2, N>, AllParams<N>, N);
+kernel_width!(
+    [S: RowSupport<M>, const N: usize, const M: usize] RowSparseJacobian<S, N, M>,
+    S,
+    M
+);
 
 /// Every parameter in both rows: the support of a plain `SMatrix<f64, 2, N>` Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq)]
