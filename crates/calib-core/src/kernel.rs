@@ -116,7 +116,8 @@ macro_rules! kernel_width {
                 D: LensDistortion<ParamJacobian = Self>,
                 P: Projection,
             {
-                reference_rows::<D, P, $support, $m>(camera, pose, view, gram)
+                let geometry = ReferenceGeometry { pose };
+                geometry_rows::<D, P, _, $support, 8, $m>(camera, &geometry, view, gram)
             }
 
             #[inline]
@@ -131,7 +132,8 @@ macro_rules! kernel_width {
                 D: LensDistortion<ParamJacobian = Self>,
                 P: Projection,
             {
-                rig_rows::<D, P, $support, $m>(camera, pose, rig, view, gram)
+                let geometry = RigGeometry::new(pose, rig);
+                geometry_rows::<D, P, _, $support, 11, $m>(camera, &geometry, view, gram)
             }
         }
     };
@@ -163,46 +165,25 @@ const fn first_indices<const N: usize>() -> [usize; N] {
     indices
 }
 
-/// [`KernelWidth::reference`] with rows of the `M` parameters `L` names per pixel row.
+/// One observation through `geometry` with rows of the `M` parameters `L` names per pixel row:
+/// the unweighted least-squares case compiled without the per-point scaling.
 #[inline]
-fn reference_rows<D, P, L, const M: usize>(
+fn geometry_rows<D, P, G, L, const F: usize, const M: usize>(
     camera: &Camera<D, P>,
-    pose: &DifferentiablePose,
+    geometry: &G,
     view: &ViewInput<'_>,
     gram: &mut GramBlocks<'_>,
 ) -> Result<f64, usize>
 where
     D: LensDistortion,
     P: Projection,
+    G: ViewGeometry<F>,
     L: RowSupport<M>,
 {
-    let geometry = ReferenceGeometry { pose };
     if view.observation.weights.is_none() && gram.loss().is_trivial() {
-        accumulate::<D, P, _, L, 8, M, false>(camera, &geometry, view, gram)
+        accumulate::<D, P, G, L, F, M, false>(camera, geometry, view, gram)
     } else {
-        accumulate::<D, P, _, L, 8, M, true>(camera, &geometry, view, gram)
-    }
-}
-
-/// [`KernelWidth::rig`] with rows of the `M` parameters `L` names per pixel row.
-#[inline]
-fn rig_rows<D, P, L, const M: usize>(
-    camera: &Camera<D, P>,
-    pose: &DifferentiablePose,
-    rig: &DifferentiablePose,
-    view: &ViewInput<'_>,
-    gram: &mut GramBlocks<'_>,
-) -> Result<f64, usize>
-where
-    D: LensDistortion,
-    P: Projection,
-    L: RowSupport<M>,
-{
-    let geometry = RigGeometry::new(pose, rig);
-    if view.observation.weights.is_none() && gram.loss().is_trivial() {
-        accumulate::<D, P, _, L, 11, M, false>(camera, &geometry, view, gram)
-    } else {
-        accumulate::<D, P, _, L, 11, M, true>(camera, &geometry, view, gram)
+        accumulate::<D, P, G, L, F, M, true>(camera, geometry, view, gram)
     }
 }
 
