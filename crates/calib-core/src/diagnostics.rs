@@ -253,6 +253,24 @@ fn circular_fisheye_note(model: CameraModel, validity: &Validity, observed_radiu
     )
 }
 
+/// For a pinhole model whose nearest fold lies within the farthest observed corner: the sentence
+/// saying that views near the image corners cannot be the remedy there, and what is. A pinhole
+/// model fitted to a fisheye or a strong barrel lens folds inside the area the board already
+/// covers (a 190-degree fisheye fitted with brown-conrady5: fold 270 px out, corners seen to 345
+/// px; `benches/validity/run.sh`). Empty otherwise.
+fn covered_fold_note(model: CameraModel, validity: &Validity, observed_radius: f64) -> String {
+    if model.is_fisheye()
+        || !validity.valid_radius_px.is_finite()
+        || validity.valid_radius_px >= observed_radius
+    {
+        return String::new();
+    }
+    format!(
+        " (the fold, {:.0} px from the principal point, lies within the farthest corner seen, {observed_radius:.0} px out: more views there cannot undo it; the lens may be wider than this model follows: compare the models (calib single --compare-models) or try --model kannala-brandt4)",
+        validity.valid_radius_px
+    )
+}
+
 /// How to hold coefficients fixed, in both front ends: each of `choices` (alternatives, each a
 /// set of names) as the command line's `--fix` and as the Python functions' `fix=`, e.g.
 /// "--fix k4 or --fix k3,k4; Python: fix=['k4'] or fix=['k3', 'k4']". The messages are shared by
@@ -471,6 +489,7 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
                         several.then_some(spec.name.as_str()),
                     ),
                     circular_fisheye_note(camera.model, &validity, observed_radius)
+                        + &covered_fold_note(camera.model, &validity, observed_radius)
                 ),
             ));
         }
@@ -868,6 +887,40 @@ mod tests {
         .validity(640, 480);
         assert_eq!(
             circular_fisheye_note(CameraModel::BrownConrady4, &pinhole, 100.0),
+            ""
+        );
+    }
+
+    /// A pinhole fit folding inside the corners seen gets advice other than more views; a fold
+    /// beyond them, or a fisheye model, does not.
+    #[test]
+    fn a_fold_inside_the_corners_seen_points_to_other_models() {
+        use camera_model::{AnyCamera, Intrinsics};
+        let pinhole = AnyCamera::new(
+            CameraModel::BrownConrady4,
+            Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+            vec![-0.5, 0.0, 0.0, 0.0],
+        )
+        .unwrap()
+        .validity(640, 480);
+        assert!(pinhole.valid_radius_px < 400.0, "{pinhole:?}");
+        let note = covered_fold_note(CameraModel::BrownConrady4, &pinhole, 400.0);
+        assert!(
+            note.contains("400 px out")
+                && note.contains("calib single --compare-models")
+                && note.contains("kannala-brandt4"),
+            "{note}"
+        );
+        assert_eq!(
+            covered_fold_note(
+                CameraModel::BrownConrady4,
+                &pinhole,
+                pinhole.valid_radius_px - 1.0
+            ),
+            ""
+        );
+        assert_eq!(
+            covered_fold_note(CameraModel::KannalaBrandt4, &pinhole, 400.0),
             ""
         );
     }
