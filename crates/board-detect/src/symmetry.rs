@@ -38,7 +38,9 @@ pub(crate) const MIN_SPACING: f64 = 10.0;
 /// offsets, bilinear samples of the blurred image `img`), divided by the window's contrast
 /// (90th minus 10th percentile of its samples, at least 1 grey level). 0 for a perfect
 /// X-junction; `None` when the window leaves the image.
-pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
+/// `samples` is the caller's buffer for the window's samples (one allocation per board, not per
+/// corner).
+pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize, samples: &mut Vec<f64>) -> Option<f64> {
     if !(q[0].is_finite() && q[1].is_finite()) {
         return None;
     }
@@ -58,7 +60,7 @@ pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
         let top = a + fx * (b - a);
         top + fy * (c + fx * (d - c) - top)
     };
-    let mut samples = Vec::with_capacity((2 * r + 1).pow(2));
+    samples.clear();
     let mut sum2 = 0.0f64;
     let mut n = 0usize;
     for dy in -ri..=ri {
@@ -88,7 +90,11 @@ pub(crate) fn asymmetry(img: &ImageF, q: P, r: usize) -> Option<f64> {
 /// crossing: `(index, asymmetry, limit)`. `pts` are in `img`'s pixel coordinates; corners
 /// whose window leaves the image are not judged.
 pub(crate) fn worst_asymmetric(img: &ImageF, pts: &[P], r: usize) -> Option<(usize, f64, f64)> {
-    let a: Vec<Option<f64>> = pts.iter().map(|&q| asymmetry(img, q, r)).collect();
+    let mut samples = Vec::with_capacity((2 * r + 1).pow(2));
+    let a: Vec<Option<f64>> = pts
+        .iter()
+        .map(|&q| asymmetry(img, q, r, &mut samples))
+        .collect();
     let mut known: Vec<f64> = a.iter().flatten().copied().collect();
     if known.is_empty() {
         return None;
@@ -144,12 +150,12 @@ mod tests {
     #[test]
     fn shadow_edge_through_a_corner_breaks_its_symmetry() {
         let c = [20.3, 19.8];
-        let clean = asymmetry(&junction(c, None), c, 3).unwrap();
+        let clean = asymmetry(&junction(c, None), c, 3, &mut Vec::new()).unwrap();
         assert!(clean < 0.01, "clean {clean}");
-        let through = asymmetry(&junction(c, Some((0.0, 0.5))), c, 3).unwrap();
+        let through = asymmetry(&junction(c, Some((0.0, 0.5))), c, 3, &mut Vec::new()).unwrap();
         assert!(through > 0.2, "through {through}");
-        let far = asymmetry(&junction(c, Some((8.0, 0.5))), c, 3).unwrap();
+        let far = asymmetry(&junction(c, Some((8.0, 0.5))), c, 3, &mut Vec::new()).unwrap();
         assert!(far < 0.01, "far {far}");
-        assert!(asymmetry(&junction(c, None), [1.0, 20.0], 3).is_none());
+        assert!(asymmetry(&junction(c, None), [1.0, 20.0], 3, &mut Vec::new()).is_none());
     }
 }
