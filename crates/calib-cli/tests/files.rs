@@ -31,6 +31,22 @@ fn fails(command: &mut Command) -> String {
     err
 }
 
+/// Runs `command`, expecting failure after the calibration's warnings (with `-q`, each on one
+/// line of stderr: the bundled sets get `poor-coverage`); returns the error line, the last.
+fn fails_after_warnings(command: &mut Command) -> String {
+    let run = command.output().unwrap();
+    let err = String::from_utf8(run.stderr).unwrap();
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let lines: Vec<&str> = err.lines().collect();
+    let (last, warnings) = lines.split_last().expect("no error message");
+    assert!(
+        warnings.iter().all(|l| l.starts_with("calib: warning [")),
+        "{err}"
+    );
+    last.to_string()
+}
+
 /// Runs `calib ARGS... -q -o OUTPUT` and checks that it succeeded.
 fn writes(args: &[&str], output: &std::path::Path) {
     let run = calib()
@@ -139,7 +155,7 @@ fn links_pipes_and_read_only_results() {
 
     std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o444)).unwrap();
     let before = std::fs::read(&real).unwrap();
-    let err = fails(calib().args(["single", &obs, "-q", "-o"]).arg(&real));
+    let err = fails_after_warnings(calib().args(["single", &obs, "-q", "-o"]).arg(&real));
     assert!(err.contains("read-only"), "{err}");
     assert_eq!(std::fs::read(&real).unwrap(), before);
 }

@@ -49,6 +49,14 @@ pub const VALIDITY_MARGIN: f64 = 0.05;
 /// warning.
 pub const INCONSISTENT_VIEW_FACTOR: f64 = 5.0;
 
+/// An image corner or edge midpoint farther than this fraction of the image's half-diagonal
+/// from every corner used gets a `poor-coverage` warning: the distortion there is extrapolated.
+/// Measured on the bundled webcam sets, whose corners stay 0.57 to 0.64 of the half-diagonal
+/// away from one image corner: models fitting them equally well (brown-conrady4, rational8,
+/// both by calib) differ by 4.5 to 51 px at the image corners, by under 0.3 px at the centre
+/// (`docs/calib-single.md`, section 8; `benches/coverage/run.sh`).
+pub const COVERAGE_GAP: f64 = 0.25;
+
 /// Fails if a pixel of `view` lies outside the image by more than the margin.
 pub fn check_inside_image(
     index: usize,
@@ -269,6 +277,114 @@ fn covered_fold_note(model: CameraModel, validity: &Validity, observed_radius: f
         " (the fold, {:.0} px from the principal point, lies within the farthest corner seen, {observed_radius:.0} px out: more views there cannot undo it; the lens may be wider than this model follows: compare the models (calib single --compare-models) or try --model kannala-brandt4)",
         validity.valid_radius_px
     )
+}
+
+/// An image corner or edge midpoint that no board corner reached: farther than
+/// [`COVERAGE_GAP`] of the image's half-diagonal from every corner used.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UncoveredPlace {
+    /// "top-left corner", "top edge" (its midpoint), ... clockwise from the top-left corner.
+    pub name: &'static str,
+    /// Where it is, pixels (OpenCV: the first pixel's centre at (0, 0)).
+    pub pixel: Vector2<f64>,
+    /// Distance to the nearest corner used, pixels.
+    pub gap: f64,
+}
+
+/// The image corners and edge midpoints of an image of `size` farther than [`COVERAGE_GAP`] of
+/// its half-diagonal from every one of `pixels` (the board corners used), clockwise from the
+/// top-left corner. Cost: 8 distances per pixel.
+pub fn uncovered_places<'a>(
+    size: ImageSize,
+    pixels: impl IntoIterator<Item = &'a Vector2<f64>>,
+) -> Vec<UncoveredPlace> {
+    let (w, h) = (f64::from(size.width) - 1.0, f64::from(size.height) - 1.0);
+    let places = [
+        ("top-left corner", 0.0, 0.0),
+        ("top edge", w / 2.0, 0.0),
+        ("top-right corner", w, 0.0),
+        ("right edge", w, h / 2.0),
+        ("bottom-right corner", w, h),
+        ("bottom edge", w / 2.0, h),
+        ("bottom-left corner", 0.0, h),
+        ("left edge", 0.0, h / 2.0),
+    ];
+    let mut nearest = [f64::INFINITY; 8];
+    for p in pixels {
+        for (n, &(_, x, y)) in nearest.iter_mut().zip(&places) {
+            *n = n.min((p.x - x).hypot(p.y - y));
+        }
+    }
+    let limit = COVERAGE_GAP * size.half_diagonal();
+    places
+        .iter()
+        .zip(nearest)
+        .filter(|&(_, gap)| gap > limit)
+        .map(|(&(name, x, y), gap)| UncoveredPlace {
+            name,
+            pixel: Vector2::new(x, y),
+            gap,
+        })
+        .collect()
+}
+
+/// The `poor-coverage` warning of camera `c`: [`uncovered_places`] of the corners used
+/// (rejected outliers and zero-weight points do not count), named with their distances. Places
+/// beyond the nearest fold of the model are left out (the `model-invalid` warning speaks for
+/// them).
+fn coverage_warning(
+    problem: &JointProblem,
+    solution: &JointSolution,
+    c: usize,
+    who: &str,
+    validity: &Validity,
+) -> Option<Warning> {
+    let size = problem.cameras[c].image_size;
+    let k = solution.cameras[c].intrinsics;
+    let used = problem
+        .observations
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.camera == c)
+        .flat_map(|(i, o)| {
+            let rejected = solution.rejected.get(i).map_or(&[][..], Vec::as_slice);
+            o.pixels.iter().enumerate().filter_map(move |(j, p)| {
+                let unused =
+                    o.weights.as_ref().is_some_and(|wt| wt[j] <= 0.0) || rejected.contains(&j);
+                (!unused).then_some(p)
+            })
+        });
+    let gaps: Vec<String> = uncovered_places(size, used)
+        .into_iter()
+        .filter(|place| {
+            !validity.valid_radius_px.is_finite()
+                || (place.pixel.x - k.cx).hypot(place.pixel.y - k.cy) <= validity.valid_radius_px
+        })
+        .map(|place| format!("{:.0} px from the {}", place.gap, place.name))
+        .collect();
+    if gaps.is_empty() {
+        return None;
+    }
+    let scale = size.half_diagonal();
+    let circle = if solution.cameras[c].model.is_fisheye() {
+        " (for a circular fisheye whose image circle does not reach them, nothing needs doing)"
+    } else {
+        ""
+    };
+    Some(Warning::new(
+        WarningCode::PoorCoverage,
+        format!(
+            "{who}the board corners used leave parts of the image uncovered: the nearest is {} (this warning from {:.0} px, {:.0}% of the half-diagonal); the lens model is extrapolated there, and models fitting the corners seen equally well can differ there by pixels; add views with the board close to {}{circle} (the report's coverage plot shows where corners were seen)",
+            gaps.join(", "),
+            COVERAGE_GAP * scale,
+            100.0 * COVERAGE_GAP,
+            if gaps.len() > 1 {
+                "those places"
+            } else {
+                "that place"
+            },
+        ),
+    ))
 }
 
 /// How to hold coefficients fixed, in both front ends: each of `choices` (alternatives, each a
@@ -676,6 +792,9 @@ pub fn camera_warnings(problem: &JointProblem, solution: &JointSolution) -> Vec<
             }
         }
         if let Some(w) = radial_misfit(solution, c, &who, camera.model) {
+            warnings.push(w);
+        }
+        if let Some(w) = coverage_warning(problem, solution, c, &who, &validity) {
             warnings.push(w);
         }
         // Per-view RMS over the used points.

@@ -286,7 +286,10 @@ def test_warnings_reach_pythons_warnings_module():
         warnings.simplefilter("error", calib.CalibrationWarning)
         with pytest.raises(calib.CalibrationWarning, match=r"^\[poorly-determined\]"):
             calib.calibrate_camera(obj[:6], img[:6], size, model="rational8")
-    # A calibration without warnings emits none.
+    # One code filtered out, the others still raise: the bundled webcam boards stay away from
+    # the image corners, and poor-coverage is that calibration's only warning.
     with warnings.catch_warnings():
         warnings.simplefilter("error", calib.CalibrationWarning)
-        assert calib.calibrate_camera(obj, img, size).warnings == []
+        warnings.filterwarnings("ignore", r"\[poor-coverage\]", calib.CalibrationWarning)
+        result = calib.calibrate_camera(obj, img, size)
+    assert [w.code for w in result.warnings] == ["poor-coverage"]

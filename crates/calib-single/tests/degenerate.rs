@@ -94,7 +94,15 @@ fn a_wrong_image_size_puts_a_warning_on_the_principal_point() {
         result.warnings
     );
     let clean = calibrate(&set.observations, &CalibrationOptions::default()).unwrap();
-    assert!(clean.warnings.is_empty(), "{:?}", clean.warnings);
+    // The default boards stay in the middle 40% of the image: poor-coverage is due.
+    assert!(
+        clean
+            .warnings
+            .iter()
+            .all(|w| w.code == WarningCode::PoorCoverage),
+        "{:?}",
+        clean.warnings
+    );
 }
 
 /// A view whose error is far above the others' (points from a different lens, kept because

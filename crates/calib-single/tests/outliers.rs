@@ -136,8 +136,12 @@ fn stray_corners_are_rejected_and_the_estimate_is_unharmed() {
         let set = generate(&config).unwrap();
         let clean = calibrate(&set.observations, &CalibrationOptions::default()).unwrap();
         assert_eq!(clean.num_rejected, 0, "seed {seed}");
+        // The default boards stay in the middle 40% of the image: poor-coverage is due.
         assert!(
-            clean.warnings.is_empty(),
+            clean
+                .warnings
+                .iter()
+                .all(|w| w.code == WarningCode::PoorCoverage),
             "seed {seed}: {:?}",
             clean.warnings
         );

@@ -96,7 +96,15 @@ fn a_tiny_baseline_gets_a_warning() {
     );
     let normal = generate_stereo(&SyntheticStereoConfig::default()).unwrap();
     let result = calibrate_stereo(&normal.observations, &StereoOptions::default()).unwrap();
-    assert!(result.warnings.is_empty(), "{:?}", result.warnings);
+    // The default boards stay in the middle of the images: poor-coverage is due.
+    assert!(
+        result
+            .warnings
+            .iter()
+            .all(|w| w.code == WarningCode::PoorCoverage),
+        "{:?}",
+        result.warnings
+    );
 }
 
 #[test]
