@@ -139,6 +139,25 @@ def main(path):
                 line += f'  {n} px: {100 * np.median(xs):.1f}% / {100 * np.percentile(xs, 90):.1f}% (n={len(xs)})'
         p(line)
     p('')
+    # Was the user told? The recommended row's poor-coverage warning, and the table's line on
+    # equally fitting models disagreeing where no corner was seen (its advice when the
+    # disagreement exceeds the recommended model's cross-validated RMS).
+    p('Told where the views do not reach (recommended row): poor-coverage warning / disagreement line '
+      '/ its advice (disagreement above the cross-validated RMS); worse and not worse recommendations:')
+    for label, want in (('worse', True), ('not worse', False)):
+        rs = [r for r in recs if r.get('recommended') and (x := worse(r, 'grid_rms')) and x[2] == want]
+        warned = sum(1 for r in rs if 'poor-coverage' in r['rows'][r['recommended']]['warn'])
+        lined = [r for r in rs if r.get('uncovered_disagreement')]
+        advised = [r for r in lined
+                   if r['uncovered_disagreement']['pixels'] > (r['rows'][r['recommended']].get('cv') or 0)]
+        p(f'  {label:<9}: {len(rs)} cases: warned {warned}, disagreement line {len(lined)}, advice {len(advised)}')
+    ratios = [r['uncovered_disagreement']['pixels'] / e for r in recs
+              if r.get('recommended') and r.get('uncovered_disagreement')
+              and (e := r['rows'][r['recommended']].get('grid_max')) and np.isfinite(e)]
+    if ratios:
+        p(f'  disagreement / recommended model\'s largest error over the image against the truth: median {np.median(ratios):.2f}, '
+          f'10th-90th percentile {np.percentile(ratios, 10):.2f} to {np.percentile(ratios, 90):.2f} (n={len(ratios)})')
+    p('')
     gaps = [r for r in recs if r.get('gap_to_best_fit') is not None and r['gap_to_best_fit'] > 0.02]
     p(f"gap_to_best_fit above 2% (the 'no model both fits' message): {len(gaps)} cases; "
       + 'by lens ' + ' '.join(f'{k}:{v}' for k, v in Counter(r['lens'] for r in gaps).items()))

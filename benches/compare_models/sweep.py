@@ -162,6 +162,7 @@ def one(case):
         rec['recommended'] = cmp_['recommended']
         rec['best_fit'] = cmp_['best_fit']
         rec['gap_to_best_fit'] = cmp_['gap_to_best_fit']
+        rec['uncovered_disagreement'] = cmp_.get('uncovered_disagreement')
         rec['rows'] = {}
         for row in cmp_['rows']:
             m = row['model']

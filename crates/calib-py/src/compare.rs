@@ -10,7 +10,7 @@ use calib_single::{Observations, compare_models as compare};
 use camera_model::CameraModel;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyList, PyString};
+use pyo3::types::{PyDict, PyList, PyString};
 
 /// The lens models of `models`: `None` (the command's set, [`MODELS`]), a name or comma-separated
 /// names, or an iterable of names; at least one, none twice.
@@ -86,7 +86,7 @@ fn model_list(models: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<CameraModel>> {
 /// starts from its own guess.
 ///
 /// Returns a :class:`ModelComparison` (``rows``, ``recommended``, ``best_fit``,
-/// ``gap_to_best_fit``, ``held_fixed``; ``str()`` is the command's table). The rows' warnings are
+/// ``gap_to_best_fit``, ``held_fixed``, ``uncovered_disagreement``; ``str()`` is the command's table). The rows' warnings are
 /// not emitted with ``warnings.warn``: a richer model's ``poorly-determined`` is what the
 /// comparison is for. Raises ``ValueError`` for fewer than 4 views (no cross-validation: the RMS
 /// alone always favours the model with the most terms), an unknown model or ``fix`` name, and
@@ -344,6 +344,27 @@ impl ModelComparison {
     #[getter]
     fn held_fixed(&self) -> Vec<String> {
         self.inner.held_fixed.clone()
+    }
+
+    /// Where no board corner was seen (the image corners and edge midpoints the
+    /// ``poor-coverage`` warning names), the largest distance between the pixel where the
+    /// recommended model sees a ray and where another model that fits as well (one-to-one over
+    /// the image, cross-validated RMS within 2% of the best) sees it: a dict with ``pixels``,
+    /// ``model`` and ``place`` (``"top-left corner"``, ``"left edge"``, ...), or None when the
+    /// corners reached every image corner and edge or no other model fits as well.
+    #[getter]
+    fn uncovered_disagreement<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .uncovered_disagreement
+            .as_ref()
+            .map(|d| {
+                let dict = PyDict::new(py);
+                dict.set_item("pixels", d.pixels)?;
+                dict.set_item("model", d.model.name())?;
+                dict.set_item("place", &d.place)?;
+                Ok(dict)
+            })
+            .transpose()
     }
 
     /// The ``to_json()`` text (or a ``calib single --compare-models -o FILE`` file) as a

@@ -43,6 +43,10 @@ def test_same_comparison_and_table_as_the_calib_command(tmp_path):
     assert c.best_fit == expected["best_fit"]
     assert c.gap_to_best_fit == expected["gap_to_best_fit"]
     assert c.held_fixed == expected["held_fixed"] == []
+    # The bundled boards stay away from the image corners: equally fitting models disagree there.
+    d = c.uncovered_disagreement
+    assert d == expected["uncovered_disagreement"]
+    assert d["pixels"] > 1.0 and d["model"] != c.recommended and d["place"].endswith(("corner", "edge"))
     # The table is the command's (the same Rust function), recommendation included.
     assert str(c) == c.table()
     assert c.table() in printed

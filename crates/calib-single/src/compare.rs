@@ -15,7 +15,8 @@ use crate::calibrate::calibrate;
 use crate::observations::Observations;
 use calib_core::warnings::Warning;
 use calib_core::{CalibrationError, CalibrationOptions};
-use camera_model::CameraModel;
+use camera_model::{AnyCamera, CameraModel, UndistortOptions};
+use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 
@@ -78,6 +79,28 @@ pub struct ModelComparison {
     pub gap_to_best_fit: Option<f64>,
     /// Names of the distortion coefficients held fixed in every model (empty: none).
     pub held_fixed: Vec<String>,
+    /// Where no board corner was seen (the image corners and edge midpoints of the
+    /// `poor-coverage` warning, [`calib_core::diagnostics::uncovered_places`]), the largest
+    /// distance between the pixel where the recommended model sees a ray and the pixel where
+    /// another model that fits as well (one-to-one over the image itself, cross-validated RMS
+    /// within [`CV_TOLERANCE`] of the best among the models the recommendation chose from) sees
+    /// it. The cross-validation judges the models
+    /// only where corners were seen; this says how much they differ where none were. `None`
+    /// when corners reached every image corner and edge, or no other model fits as well.
+    #[serde(default)]
+    pub uncovered_disagreement: Option<Disagreement>,
+}
+
+/// Two fits of the same corners disagreeing at a place of the image no board corner reached.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Disagreement {
+    /// The distance, pixels, between where the recommended model and `model` see the ray that
+    /// the recommended model sees at `place`.
+    pub pixels: f64,
+    /// The other model.
+    pub model: CameraModel,
+    /// The place: "top-left corner", "left edge" (its midpoint), ...
+    pub place: String,
 }
 
 /// Views `keep(i)` of `observations`.
@@ -154,6 +177,8 @@ pub fn compare_models(
     // Per row: the model's fit is one-to-one over the image itself (its fold, if any, lies beyond
     // the border but may lie within the validity margin).
     let mut inside_image = Vec::with_capacity(models.len());
+    // Per fitted row: its camera and the board corners it used (rejected outliers left out).
+    let mut fitted: Vec<(CameraModel, AnyCamera, Vec<Vector2<f64>>)> = Vec::new();
     let rows: Vec<ModelRow> = models
         .iter()
         .map(|&model| {
@@ -182,6 +207,19 @@ pub fn compare_models(
                     let size = r.image_size;
                     let validity = r.camera.validity(size.width, size.height);
                     inside_image.push((model, validity.covers_image(0.0)));
+                    let used = r
+                        .views
+                        .iter()
+                        .flat_map(|v| {
+                            observations.views[v.index]
+                                .image_points
+                                .iter()
+                                .enumerate()
+                                .filter(|(j, _)| !v.rejected_points.contains(j))
+                                .map(|(_, p)| Vector2::new(p.x, p.y))
+                        })
+                        .collect();
+                    fitted.push((model, r.camera.clone(), used));
                     ModelRow {
                         model,
                         parameters: model.num_params() - held,
@@ -234,14 +272,29 @@ pub fn compare_models(
                 .iter()
                 .any(|&(m, inside)| m == r.model && inside)
     };
-    let recommended = match valid {
+    let chosen = match valid {
         Some((_, best)) if adequate(best) => valid,
         _ => match simplest_within(&in_image) {
             Some((m, best)) if adequate(best) => Some((m, best)),
             _ => valid,
         },
-    }
-    .map(|(m, _)| m);
+    };
+    let recommended = chosen.map(|(m, _)| m);
+    let uncovered_disagreement = chosen.and_then(|(m, best)| {
+        let size = observations.image_size?;
+        let (_, camera, used) = fitted.iter().find(|f| f.0 == m)?;
+        let places = calib_core::diagnostics::uncovered_places(size, used);
+        let as_good: Vec<&AnyCamera> = rows
+            .iter()
+            .filter(|r| {
+                r.model != m
+                    && in_image(r)
+                    && score(r).is_some_and(|s| s <= best * (1.0 + CV_TOLERANCE))
+            })
+            .filter_map(|r| fitted.iter().find(|f| f.0 == r.model).map(|f| &f.1))
+            .collect();
+        disagreement(camera, &as_good, &places)
+    });
     let gap_to_best_fit = recommended.zip(best_fit).and_then(|(m, (_, best))| {
         let chosen = rows.iter().find(|r| r.model == m).and_then(score)?;
         Some((chosen / best - 1.0).max(0.0))
@@ -261,7 +314,39 @@ pub fn compare_models(
         best_fit: best_fit.map(|b| b.0),
         gap_to_best_fit,
         held_fixed,
+        uncovered_disagreement,
     }
+}
+
+/// The largest distance over `places` between where `camera` sees a pixel's ray and where each
+/// of `others` sees that ray. Rays `camera` cannot find (beyond a fold) or that another model
+/// cannot project are skipped.
+fn disagreement(
+    camera: &AnyCamera,
+    others: &[&AnyCamera],
+    places: &[calib_core::diagnostics::UncoveredPlace],
+) -> Option<Disagreement> {
+    let options = UndistortOptions::default();
+    let mut worst: Option<Disagreement> = None;
+    for place in places {
+        let Ok(ray) = camera.pixel_to_ray(&place.pixel, &options) else {
+            continue;
+        };
+        for other in others {
+            let Ok(pixel) = other.project_camera_point(&ray) else {
+                continue;
+            };
+            let pixels = (pixel - place.pixel).norm();
+            if pixels.is_finite() && worst.as_ref().is_none_or(|w| pixels > w.pixels) {
+                worst = Some(Disagreement {
+                    pixels,
+                    model: other.model,
+                    place: place.name.to_string(),
+                });
+            }
+        }
+    }
+    worst
 }
 
 impl ModelComparison {
@@ -345,6 +430,26 @@ impl ModelComparison {
             None => {
                 let _ = writeln!(out, "no model is valid over the image");
             }
+        }
+        if let (Some(m), Some(d)) = (self.recommended, &self.uncovered_disagreement) {
+            let shown = self
+                .rows
+                .iter()
+                .find(|r| r.model == m)
+                .and_then(|r| r.cross_validated_rms);
+            let advice = if shown.is_none_or(|cv| d.pixels > cv) {
+                ": the cross-validation judges the models only where corners were seen; add views with the board near the image corners and edges (the poor-coverage warning names them) before trusting any of them there"
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                out,
+                "where no board corner was seen, models that fit as well disagree: the ray {m} sees at the image's {}, {} (one-to-one over the image, cross-validated RMS within {:.0}% of the best) sees {:.2} px away{advice}",
+                d.place,
+                d.model,
+                100.0 * CV_TOLERANCE,
+                d.pixels
+            );
         }
         out
     }

@@ -320,6 +320,11 @@ class ModelComparison:
         """recommended's cross-validated RMS above best_fit's, as a fraction."""
     @property
     def held_fixed(self) -> list[str]: ...
+    @property
+    def uncovered_disagreement(self) -> Optional[dict[str, Any]]:
+        """Where no board corner was seen: the largest distance (``pixels``) between the
+        recommended model's pixel of a ray and another equally fitting ``model``'s, at
+        ``place``; None when corners reached every image corner and edge."""
     def table(self) -> str: ...
     def to_json(self) -> str:
         """What ``calib single --compare-models -o FILE`` writes."""
