@@ -84,9 +84,10 @@ pub struct ModelComparison {
     /// distance between the pixel where the recommended model sees a ray and the pixel where
     /// another model that fits as well (one-to-one over the image itself, cross-validated RMS
     /// within [`CV_TOLERANCE`] of the best among the models the recommendation chose from) sees
-    /// it. The cross-validation judges the models
-    /// only where corners were seen; this says how much they differ where none were. `None`
-    /// when corners reached every image corner and edge, or no other model fits as well.
+    /// it. The cross-validation judges the models only where corners were seen; this says how
+    /// much they differ where none were (an order of magnitude of the extrapolation's error,
+    /// not a bound: docs/camera-model.md, "Choosing a model"). `None` when corners reached
+    /// every image corner and edge, or no other model fits as well.
     #[serde(default)]
     pub uncovered_disagreement: Option<Disagreement>,
 }
