@@ -5,7 +5,11 @@ views by their projection errors against the true camera over the whole image (`
 the recommendation is *worse* when its error exceeds twice the true model's fit's and the true
 model's fit by more than the noise (sigma px): a systematic error the noise does not explain.
 `worse, rule before`: the same count for the recommendation the rule before the fallback to models
-folding within the validity margin would make on the same rows. `worse(seen)`: the same judgement over the image cells where corners were seen (interpolation).
+folding within the validity margin would make on the same rows. *Needlessly complex*: a valid
+model with fewer parameters than the recommended one is not worse (by the same judgement).
+Replayed rules (among the valid models only, no fallback, on the rows' per-view held-out errors):
+the 2% rule, calib's (compare.rs `as_good_as`: within 2% and not systematically worse by the
+paired test, with k times Student's t; k=1 is calib's) and the paired test without the 2%. `worse(seen)`: the same judgement over the image cells where corners were seen (interpolation).
 """
 import json, sys, math
 from collections import Counter, defaultdict
@@ -28,6 +32,58 @@ def rule_before(rows):
     best = min(rows[m]['cv'] for m in valid)
     within = [m for m in valid if rows[m]['cv'] <= best * 1.02]
     return min(within, key=lambda m: (rows[m]['params'], ORDER.index(m)))
+
+
+T975 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+        2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
+        2.060, 2.056, 2.052, 2.048, 2.045, 2.042]
+
+
+def paired(a, b):
+    """compare.rs `paired_excess`: (mean log ratio of the views' held-out squared errors, its
+    standard error, views)."""
+    hb = {v: e for v, e, _ in b['held_out']}
+    d = np.array([math.log(e / hb[v]) if e > 0 and hb[v] > 0 else math.nan
+                  for v, e, _ in a['held_out'] if v in hb])
+    if len(d) < 3 or not np.all(np.isfinite(d)):
+        return None
+    return d.mean(), math.sqrt(d.var(ddof=1) / len(d)), len(d)
+
+
+def rule_paired(k, within_2=True):
+    """calib's rule with k times its factor (`within_2` False: the paired test alone), among the
+    valid models (no fallback)."""
+    def rule(rows):
+        valid = [m for m in ORDER if m in rows and rows[m]['valid'] and rows[m]['cv'] is not None]
+        if not valid or not all(rows[m].get('held_out') for m in valid):
+            return None
+        best = min(valid, key=lambda m: rows[m]['cv'])
+
+        def as_good(m):
+            if m == best:
+                return True
+            t = paired(rows[m], rows[best])
+            w2 = rows[m]['cv'] <= rows[best]['cv'] * 1.02
+            if t is None:
+                return w2
+            f = T975[t[2] - 2] if t[2] - 1 <= len(T975) else 1.96
+            return (w2 or not within_2) and t[0] <= k * f * t[1]
+        return min((m for m in valid if as_good(m)), key=lambda m: (rows[m]['params'], ORDER.index(m)))
+    return rule
+
+
+def needless(rec, rule=None):
+    """The recommendation has more parameters than a valid model whose fit is not worse."""
+    rows = rec['rows']
+    m = rec.get('recommended') if rule is None else rule(rows)
+    if m is None:
+        return False
+    t = rows.get(rec['model'], {}).get('grid_rms')
+    if t is None:
+        return False
+    fine = [o for o, r in rows.items() if r['valid'] and r.get('grid_rms') is not None
+            and not (r['grid_rms'] > 2 * t and r['grid_rms'] > t + rec['noise'])]
+    return any(rows[o]['params'] < rows[m]['params'] for o in fine)
 
 
 def worse(rec, key, rule=None):
@@ -77,15 +133,33 @@ def main(path):
     p('')
     p('All tilts (docs/camera-model.md, "Choosing a model"):')
     p('')
-    p('| true lens | cases | recommended | worse | worse, rule before |')
-    p('|---|---|---|---|---|')
+    p('| true lens | cases | recommended | worse | needlessly complex | worse, rule before |')
+    p('|---|---|---|---|---|---|')
     for lens in lenses:
         rs = [r for r in recs if r['lens'] == lens and 'rows' in r]
         c = Counter(SHORT[r.get('recommended')] for r in rs)
         rec_s = ', '.join(f'{k} {v}' for k, v in sorted(c.items(), key=lambda kv: -kv[1]))
         w = sum(1 for r in rs if (x := worse(r, 'grid_rms')) and x[2])
         wb = sum(1 for r in rs if (x := worse(r, 'grid_rms', rule_before)) and x[2])
-        p(f'| {lens} | {len(rs)} | {rec_s} | {w} | {wb} |')
+        nc = sum(1 for r in rs if needless(r))
+        p(f'| {lens} | {len(rs)} | {rec_s} | {w} | {nc} | {wb} |')
+    rs = [r for r in recs if 'rows' in r]
+    p(f"| all | {len(rs)} | | {sum(1 for r in rs if (x := worse(r, 'grid_rms')) and x[2])} | "
+      f"{sum(1 for r in rs if needless(r))} | {sum(1 for r in rs if (x := worse(r, 'grid_rms', rule_before)) and x[2])} |")
+    p('')
+    if all(r['rows'][m].get('held_out') for r in rs for m in r['rows'] if r['rows'][m]['cv'] is not None):
+        p('Replayed among the valid models (no fallback): worse / needlessly complex, by views (all lenses and tilts)')
+        rules = ([('2% rule', rule_before)] + [(f'2% & paired k={k}', rule_paired(k)) for k in (0.5, 1, 2)]
+                 + [('paired alone', rule_paired(1, False))])
+        p(f"{'rule':<20}" + ''.join(f'{f"{v} views":>12}' for v in (5, 8, 15, 30)) + f"{'all':>12}")
+        for name, rule in rules:
+            line = f'{name:<20}'
+            for v in (5, 8, 15, 30, None):
+                sub = [r for r in rs if v is None or r['views'] == v]
+                w = sum(1 for r in sub if (x := worse(r, 'grid_rms', rule)) and x[2])
+                n = sum(1 for r in sub if needless(r, rule))
+                line += f'{f"{w} / {n}":>12}'
+            p(line)
     p('')
     p('Worse recommendations by views and noise (tilt 45): worse / cases')
     hdr = f"{'lens':<16}" + ''.join(f'{f"{v}v {n}px":>11}' for v in (5, 8, 15, 30) for n in (0.1, 0.3, 1.0))

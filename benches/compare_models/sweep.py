@@ -163,12 +163,16 @@ def one(case):
         rec['best_fit'] = cmp_['best_fit']
         rec['gap_to_best_fit'] = cmp_['gap_to_best_fit']
         rec['uncovered_disagreement'] = cmp_.get('uncovered_disagreement')
+        rec['reference'] = cmp_.get('reference')
         rec['rows'] = {}
         for row in cmp_['rows']:
             m = row['model']
             r = {'params': row['parameters'], 'rms': row['rms'], 'cv': row['cross_validated_rms'],
                  'valid': row['valid_over_image'], 'warn': sorted({x['code'] for x in row['warnings']}),
-                 'error': row['error']}
+                 'error': row['error'],
+                 # The paired test (calib with per-view held-out errors; absent before).
+                 'held_out': [[v['view'], v['squared_error'], v['points']] for v in row.get('held_out', [])],
+                 'excess': row.get('excess_over_reference'), 'excess_se': row.get('excess_std_error')}
             frc, _, ferr = run(['single', obs, '--model', m, '-q', '--threads', '1', '-o', f'{tmp}/{m}.json'])
             if frc == 0:
                 res = json.load(open(f'{tmp}/{m}.json'))
