@@ -39,6 +39,12 @@ def test_same_comparison_and_table_as_the_calib_command(tmp_path):
         assert row.valid_over_image == want["valid_over_image"]
         assert [w.code for w in row.warnings] == [w["code"] for w in want["warnings"]]
         assert row.error == want["error"]
+        # The paired test's inputs and result (29 views, each held out once).
+        assert row.held_out == [tuple(v.values()) for v in want["held_out"]]
+        assert sorted(v[0] for v in row.held_out) == list(range(29))
+        assert row.excess_over_reference == want["excess_over_reference"]
+        assert row.excess_std_error == want["excess_std_error"]
+    assert c.reference == expected["reference"] == "brown-conrady4"
     assert c.recommended == expected["recommended"] == "brown-conrady4"
     assert c.best_fit == expected["best_fit"]
     assert c.gap_to_best_fit == expected["gap_to_best_fit"]

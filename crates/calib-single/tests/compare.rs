@@ -2,7 +2,7 @@
 //! coefficients held fixed by name in every model.
 
 use calib_core::synthetic::{SyntheticConfig, default_distortion};
-use calib_single::compare::MODELS;
+use calib_single::compare::{self, MODELS};
 use calib_single::synthetic::generate;
 use calib_single::{CalibrationOptions, ModelComparison, Observations, compare_models};
 use camera_model::{CameraModel, Intrinsics};
@@ -311,12 +311,17 @@ fn valid_models_that_cannot_be_cross_validated_are_not_called_invalid() {
 
 /// A brown-conrady5 lens whose k3 matters only at the image corners, seen by boards in the
 /// middle of the image (`calib synth` places them in its middle 40%): brown-conrady4 is
-/// recommended, and is tens of pixels wrong at the image corners. The comparison reports how
-/// far the models that fit as well disagree there, and that disagreement is of the order of the
-/// recommended fit's true error at the place it names (within a factor of 2 over seeds 1 to 6,
-/// measured: ratios 0.84 to 1.6; the other model is no truth either).
+/// recommended on most seeds, and is tens of pixels wrong at the image corners. The comparison
+/// reports how far the models that fit as well disagree there, and that disagreement is of the
+/// order of the recommended fit's true error at the place it names (within a factor of 2,
+/// measured: ratios 0.84 to 1.6; the other model is no truth either). On seed 1 the paired
+/// test finds brown-conrady4 systematically worse (2.3 standard errors) and recommends
+/// brown-conrady5, the true model, which no other model one-to-one over the image fits as well:
+/// nothing to report there, and the test checks that instead (it asserted a disagreement on
+/// every seed before the paired test).
 #[test]
 fn equally_fitting_models_disagreeing_where_no_corner_was_seen_are_reported() {
+    let mut reported = 0;
     for seed in 1..=6 {
         let config = SyntheticConfig {
             model: CameraModel::BrownConrady5,
@@ -335,10 +340,19 @@ fn equally_fitting_models_disagreeing_where_no_corner_was_seen_are_reported() {
             &[],
         );
         let recommended = c.recommended.unwrap();
-        let d = c
-            .uncovered_disagreement
-            .clone()
-            .unwrap_or_else(|| panic!("{}", c.table()));
+        let Some(d) = c.uncovered_disagreement.clone() else {
+            // Only when no other model valid over the image is as good.
+            let reference = row(&c, c.reference.unwrap());
+            assert!(
+                c.rows.iter().all(|r| r.model == recommended
+                    || !r.valid_over_image
+                    || !compare::as_good_as(r, reference)),
+                "seed {seed}: {}",
+                c.table()
+            );
+            continue;
+        };
+        reported += 1;
         assert!(
             c.table().contains("where no board corner was seen"),
             "{}",
@@ -370,4 +384,97 @@ fn equally_fitting_models_disagreeing_where_no_corner_was_seen_are_reported() {
             c.table()
         );
     }
+    assert!(
+        reported >= 4,
+        "{reported} of 6 seeds reported a disagreement"
+    )
+}
+
+/// A strong rational barrel lens (benches/compare_models' `rational-barrel`), 30 views at 0.3 px:
+/// kannala-brandt4's cross-validated RMS is within 2% of rational8's, and the 2% rule
+/// recommended it, with 15 px of error over the image against rational8's 0.54 px. The paired
+/// test sees that the excess is systematic: a misfit of `delta` px^2 per point adds `n delta` to
+/// each held-out view's squared error (n = 54 points, about `n 2 sigma^2` of noise), a log ratio
+/// of `delta / (2 sigma^2)`, while the noise moves it by about `sqrt(delta / n) / sigma` per
+/// view (the cross term of misfit and noise; the noise itself is the same for both models).
+/// Over V = 30 views that is `sqrt(V n delta) / (2 sigma)` standard errors: 5 for the 3.5% seen
+/// here (delta = 0.0063 px^2, sigma = 0.3 px), against a threshold of t(29) = 2.05 (measured:
+/// 3.4, the views' spread larger than the noise alone).
+#[test]
+fn a_simpler_model_within_two_percent_but_systematically_worse_is_not_chosen() {
+    let config = SyntheticConfig {
+        model: CameraModel::Rational8,
+        distortion: vec![1.0, 0.2, 0.001, -0.0005, 0.0, 1.5, 0.5, 0.0],
+        intrinsics: Intrinsics::new(320.0, 320.0, 319.5, 239.5),
+        views: 30,
+        noise_px: 0.3,
+        seed: 1,
+        ..Default::default()
+    };
+    let obs = generate(&config).unwrap().observations;
+    let c = compare_models(&obs, &CalibrationOptions::default(), &MODELS, &[]);
+    let table = c.table();
+    let kb = row(&c, CameraModel::KannalaBrandt4);
+    let rational = row(&c, CameraModel::Rational8);
+    // The case: the 2% rule would have taken kannala-brandt4 (valid, fewer parameters).
+    assert!(kb.valid_over_image && rational.valid_over_image, "{table}");
+    assert!(
+        kb.cross_validated_rms.unwrap() <= 1.02 * rational.cross_validated_rms.unwrap(),
+        "{table}"
+    );
+    assert_eq!(c.recommended, Some(CameraModel::Rational8), "{table}");
+    assert_eq!(c.reference, Some(CameraModel::Rational8), "{table}");
+    let (excess, se, views) = compare::paired_excess(kb, rational).unwrap();
+    assert_eq!(views, 30);
+    assert!(excess > compare::as_good_factor(views) * se, "{table}");
+    // The row carries the same test, and the table says why.
+    assert_eq!(kb.excess_over_reference, Some(excess));
+    assert_eq!(kb.excess_std_error, Some(se));
+    assert!(table.contains(": worse"), "{table}");
+    // Every view was held out once; the per-view errors add up to the cross-validated RMS.
+    assert_eq!(rational.held_out.len(), 30);
+    let (sum, n) = rational
+        .held_out
+        .iter()
+        .fold((0.0, 0), |(s, n), v| (s + v.squared_error, n + v.points));
+    let cv = rational.cross_validated_rms.unwrap();
+    assert!(((sum / n as f64).sqrt() - cv).abs() < 1e-9 * cv, "{table}");
+}
+
+/// A brown-conrady4 lens (104 degrees diagonal), 15 views at 0.1 px: brown-conrady5 reaches a
+/// cross-validated RMS 1.1% below the true model's. brown-conrady5 contains brown-conrady4, so
+/// its k3 only adds what it learned from the other half's noise: the true model's excess over
+/// it has an expected value of zero or less, and the paired test's statistic is then within
+/// t(14) = 2.14 standard errors in 97.5% of such cases (measured here: 1.0). The richer model
+/// is not preferred; the fewest parameters win.
+#[test]
+fn a_richer_model_better_by_chance_is_not_chosen() {
+    let config = SyntheticConfig {
+        model: CameraModel::BrownConrady4,
+        distortion: vec![-0.3, 0.09, 0.001, -0.0005],
+        intrinsics: Intrinsics::new(420.0, 420.0, 319.5, 239.5),
+        views: 15,
+        noise_px: 0.1,
+        seed: 1,
+        ..Default::default()
+    };
+    let obs = generate(&config).unwrap().observations;
+    let c = compare_models(&obs, &CalibrationOptions::default(), &MODELS, &[]);
+    let table = c.table();
+    let simple = row(&c, CameraModel::BrownConrady4);
+    let best = row(&c, c.reference.expect("a reference"));
+    // The case: a richer valid model with a lower cross-validated RMS.
+    assert!(best.parameters > simple.parameters, "{table}");
+    assert!(
+        simple.cross_validated_rms.unwrap() > best.cross_validated_rms.unwrap(),
+        "{table}"
+    );
+    let (excess, se, views) = compare::paired_excess(simple, best).unwrap();
+    assert_eq!(views, 15);
+    assert!(excess <= compare::as_good_factor(views) * se, "{table}");
+    assert_eq!(c.recommended, Some(CameraModel::BrownConrady4), "{table}");
+    assert!(
+        table.contains("brown-conrady4") && table.contains(": as good"),
+        "{table}"
+    );
 }

@@ -301,6 +301,17 @@ class ModelRow:
     @property
     def error(self) -> Optional[str]:
         """Why the calibration failed, None if it did not."""
+    @property
+    def held_out(self) -> list[tuple[int, float, int]]:
+        """Per view (input index, sum of squared held-out errors in px^2, points); empty
+        without cross-validation."""
+    @property
+    def excess_over_reference(self) -> Optional[float]:
+        """Mean log ratio of this model's per-view held-out squared errors to the reference's
+        (0.036: 3.7% larger)."""
+    @property
+    def excess_std_error(self) -> Optional[float]:
+        """Standard error of excess_over_reference from the per-view spread."""
 
 class ModelComparison:
     """Result of :func:`compare_models`; ``str()`` is the table ``calib single
@@ -310,14 +321,18 @@ class ModelComparison:
     def rows(self) -> list[ModelRow]: ...
     @property
     def recommended(self) -> Optional[str]:
-        """Fewest parameters among the valid models within 2% of the best cross-validated RMS
-        (when none is within 2% of best_fit, among those folding within 5% beyond the border)."""
+        """Fewest parameters among the valid models as good as the best valid one (cross-validated
+        RMS within 2% and not systematically worse by the paired test; when the best valid one
+        is not as good as best_fit, among those folding within 5% beyond the border)."""
     @property
     def best_fit(self) -> Optional[str]:
         """Lowest cross-validated RMS of all fitted models, valid or not."""
     @property
     def gap_to_best_fit(self) -> Optional[float]:
         """recommended's cross-validated RMS above best_fit's, as a fraction."""
+    @property
+    def reference(self) -> Optional[str]:
+        """The model the rows' excess_over_reference are measured against."""
     @property
     def held_fixed(self) -> list[str]: ...
     @property
