@@ -13,6 +13,8 @@
 #   --calib PATH    use this calib binary instead of building it
 #   --no-build      do not run cargo build (the binaries must exist)
 #   --python PATH   a Python with cv2 (OpenCV 5) and numpy to use instead of the bench's venv
+#   --opencv-from F reuse OpenCV's outcomes from an earlier run's defects.jsonl (same --count:
+#                   the images are the same, seeded) instead of running OpenCV again
 #   --out DIR       output directory (default benches/detect/out/defects): base/ (the rendered
 #                   boards), imgs/ (the defective images), defects.jsonl, table.md
 #   -h, --help      this text
@@ -32,6 +34,7 @@ CALIB=""
 BUILD=1
 PY=""
 OUT=""
+CV_FROM=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
         --count) [[ $# -ge 2 ]] || die "--count needs a value"; COUNT="$2"; shift ;;
@@ -43,6 +46,8 @@ while [[ $# -gt 0 ]]; do
         --no-build) BUILD=0 ;;
         --python) [[ $# -ge 2 ]] || die "--python needs a value"; PY="$2"; shift ;;
         --python=*) PY="${1#*=}" ;;
+        --opencv-from) [[ $# -ge 2 ]] || die "--opencv-from needs a value"; CV_FROM="$2"; shift ;;
+        --opencv-from=*) CV_FROM="${1#*=}" ;;
         --out) [[ $# -ge 2 ]] || die "--out needs a value"; OUT="$2"; shift ;;
         --out=*) OUT="${1#*=}" ;;
         -h|--help) usage; exit 0 ;;
@@ -54,6 +59,8 @@ done
 [[ -z "$CALIB" || "$CALIB" = /* ]] || CALIB="$PWD/$CALIB"
 [[ -z "$PY" || "$PY" = /* || "$PY" != */* ]] || PY="$PWD/$PY"
 [[ -z "$OUT" || "$OUT" = /* ]] || OUT="$PWD/$OUT"
+[[ -z "$CV_FROM" || "$CV_FROM" = /* ]] || CV_FROM="$PWD/$CV_FROM"
+[[ -z "$CV_FROM" || -f "$CV_FROM" ]] || die "--opencv-from: no file $CV_FROM"
 
 COMMAND="$(command_line benches/detect/defects.sh "${ORIG_ARGS[@]+"${ORIG_ARGS[@]}"}")"
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -82,7 +89,8 @@ LENS_EVAL="$TARGET_DIR/release/examples/lens_eval"
 echo "== rendering $COUNT base boards in $OUT/base"
 rm -rf "$OUT/base"
 "$LENS_EVAL" pinhole "$COUNT" "$OUT/base" --seed 1 --save
-"$PY" "$HERE/defects.py" "$OUT/base" "$OUT" --calib "$CALIB" --only "$ONLY" | tee "$OUT/log.txt"
+"$PY" "$HERE/defects.py" "$OUT/base" "$OUT" --calib "$CALIB" --only "$ONLY" \
+    ${CV_FROM:+--opencv-from "$CV_FROM"} | tee "$OUT/log.txt"
 {
     echo "Command: \`$COMMAND\`"
     echo "calib revision: $CALIB_REV; OpenCV $("$PY" -c 'import cv2; print(cv2.__version__)'), numpy $("$PY" -c 'import numpy; print(numpy.__version__)'); $(nproc) cores"
