@@ -139,6 +139,26 @@ pub enum DetectError {
         limit: f64,
     },
 
+    /// A full grid was found, but the image is too noisy for the board's contrast to place
+    /// its corners accurately: the saddle refinement's predicted uncertainty of some corner
+    /// (one standard deviation, in pixels, from the image noise measured around the board and
+    /// the corner's sharpness, after the refinement window grew as far as the squares allow)
+    /// is above `limit_px`, so corners more than a pixel off would be likely. Low light (a dark
+    /// image brightened by gain) gives it; more light, a longer exposure or less gain help.
+    #[error(
+        "too noisy for accurate corners: corner {index} is uncertain by {sigma_px:.2} px (one standard deviation, limit {limit_px:.2} px) with image noise {noise:.1} grey levels: too little contrast for the noise (more light or less gain)"
+    )]
+    TooNoisy {
+        /// Row-major index of the least certain corner.
+        index: usize,
+        /// Its predicted standard deviation in pixels (along its least certain direction).
+        sigma_px: f64,
+        /// The limit in pixels.
+        limit_px: f64,
+        /// Measured image noise, standard deviation in grey levels (0-255).
+        noise: f64,
+    },
+
     /// A full grid was found, but its geometry is not that of a planar board seen by a
     /// camera: a corner deviates from the position its neighbours predict.
     #[error(

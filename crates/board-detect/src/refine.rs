@@ -110,7 +110,55 @@ impl SaddleFit {
     /// Saddle-point refinement of `p` on the blurred image. `None` when the fit is not a
     /// saddle or the estimate moves more than the fit radius.
     pub fn refine(&self, blur: &ImageF, p: P) -> Option<P> {
+        self.refine_curvature(blur, p).map(|(q, _)| q)
+    }
+
+    /// How pixel noise reaches the fit's linear coefficients `d` and `e`: their variance per
+    /// unit variance of independent noise on the image's pixels, for a fit on that image
+    /// blurred with a Gaussian of standard deviation `sigma` px (as [`ImageF::blurred`]).
+    /// The samples are taken at whole-pixel offsets (bilinear interpolation, which averages
+    /// a little more, is left out, so this errs on the high side). By the window's symmetry
+    /// `d` and `e` have the same variance and are uncorrelated.
+    pub fn linear_noise_gain(&self, sigma: f64) -> f64 {
+        let r = self.r;
+        let kr = if sigma > 0.0 {
+            (3.0 * sigma).ceil() as isize
+        } else {
+            0
+        };
+        let g: Vec<f64> = (-kr..=kr)
+            .map(|i| {
+                if sigma > 0.0 {
+                    (-((i * i) as f64) / (2.0 * sigma * sigma)).exp()
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let gs: f64 = g.iter().sum();
+        let g: Vec<f64> = g.iter().map(|v| v / gs).collect();
+        // The coefficient `d` as a kernel on the raw pixels: the fit's row for `d` (on the
+        // sample grid) convolved with the blur; its sum of squares is the variance gain.
+        let n = 2 * r + 1;
+        let big = n + 2 * kr;
+        let mut k = vec![0.0f64; (big * big) as usize];
+        for (idx, row) in self.m.iter().enumerate() {
+            let (si, sj) = ((idx as isize) % n, (idx as isize) / n);
+            for (a, ga) in g.iter().enumerate() {
+                for (b, gb) in g.iter().enumerate() {
+                    let (x, y) = (si + a as isize, sj + b as isize);
+                    k[(y * big + x) as usize] += row[3] * ga * gb;
+                }
+            }
+        }
+        k.iter().map(|v| v * v).sum()
+    }
+
+    /// [`SaddleFit::refine`], also returning the quadratic's curvature coefficients
+    /// `[a, b, c]` (of `a x^2 + b x y + c y^2`) at the final estimate.
+    pub fn refine_curvature(&self, blur: &ImageF, p: P) -> Option<(P, [f64; 3])> {
         let mut q = p;
+        let mut curv = [0.0; 3];
         let r = self.r;
         let rf = r as f64;
         for _ in 0..30 {
@@ -149,6 +197,7 @@ impl SaddleFit {
                 }
             }
             let [a, b, cc, d, e, _] = c;
+            curv = [a, b, cc];
             let det = 4.0 * a * cc - b * b;
             if det.is_nan() || det >= 0.0 {
                 return None;
@@ -170,6 +219,85 @@ impl SaddleFit {
                 break;
             }
         }
-        Some(q)
+        Some((q, curv))
+    }
+
+    /// Standard deviation (px) along the least certain direction of a corner refined to the
+    /// saddle of a fit with curvature `[a, b, c]` ([`SaddleFit::refine_curvature`]), when the
+    /// fit's linear coefficients have variance `var_linear` (image noise variance times
+    /// [`SaddleFit::linear_noise_gain`]). The saddle is `-H^-1 (d, e)` with
+    /// `H = [[2a, b], [b, 2c]]`, so its covariance is `var_linear H^-2` and the largest
+    /// deviation `sqrt(var_linear) / min |eigenvalue of H|`. Infinite for a flat fit.
+    pub fn position_sigma(curv: [f64; 3], var_linear: f64) -> f64 {
+        let [a, b, c] = curv;
+        let half = ((a - c) * (a - c) + b * b).sqrt();
+        let l = ((a + c).abs() - half).abs().min((a + c).abs() + half);
+        if l.is_nan() || l <= 0.0 || !var_linear.is_finite() {
+            return f64::INFINITY;
+        }
+        var_linear.max(0.0).sqrt() / l
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::SplitMix;
+
+    /// A smooth X-junction (point-symmetric about `c`), 30 grey levels of contrast, plus
+    /// Gaussian noise of `noise` grey levels.
+    fn x_junction(c: P, noise: f64, rng: &mut SplitMix) -> ImageF {
+        let (w, h) = (48, 48);
+        let data = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 - c[0], (i / w) as f64 - c[1]);
+                (55.0 + 15.0 * x.tanh() * y.tanh() + noise * rng.normal()) as f32
+            })
+            .collect();
+        ImageF { w, h, data }
+    }
+
+    /// The predicted scatter of a refined corner (`position_sigma` from the noise and
+    /// `linear_noise_gain`) matches the scatter over 400 noisy images of one corner, at two
+    /// window sizes: within 15 % (the estimate of a standard deviation from 400 samples is
+    /// good to about 4 %; the prediction leaves out the bilinear interpolation's averaging and
+    /// linearizes the fit, which the measured ratios, 0.98 at r = 4 and 0.92 at r = 8, show to matter little).
+    #[test]
+    fn predicted_corner_scatter_matches_the_noise() {
+        let c = [23.3, 24.6];
+        let noise = 10.0;
+        for (r, sigma) in [(4usize, 1.0f64), (8, 3.0)] {
+            let fit = SaddleFit::new(r, r as f64 * 0.6);
+            let var_linear = noise * noise * fit.linear_noise_gain(sigma);
+            let mut rng = SplitMix(7 + r as u64);
+            let (mut sx, mut sy, mut predicted) = (0.0, 0.0, Vec::new());
+            let n = 400;
+            for _ in 0..n {
+                let img = x_junction(c, noise, &mut rng).blurred(sigma);
+                let (q, curv) = fit.refine_curvature(&img, c).expect("a saddle");
+                sx += (q[0] - c[0]).powi(2);
+                sy += (q[1] - c[1]).powi(2);
+                predicted.push(SaddleFit::position_sigma(curv, var_linear));
+            }
+            // The junction's axes are the pixel axes and symmetric: the scatter is the same
+            // along x and y, and the least certain direction is either.
+            let measured = ((sx + sy) / (2 * n) as f64).sqrt();
+            predicted.sort_by(f64::total_cmp);
+            let ratio = predicted[n / 2] / measured;
+            assert!(
+                (0.85..1.15).contains(&ratio),
+                "r {r}: predicted / measured {ratio}"
+            );
+        }
+    }
+
+    #[test]
+    fn position_sigma_of_a_flat_fit_is_infinite() {
+        assert_eq!(
+            SaddleFit::position_sigma([0.0, 0.0, 0.0], 1.0),
+            f64::INFINITY
+        );
+        // A saddle with eigenvalues +-2 of H: sqrt(4) / 2.
+        assert!((SaddleFit::position_sigma([1.0, 0.0, -1.0], 4.0) - 1.0).abs() < 1e-12);
     }
 }
