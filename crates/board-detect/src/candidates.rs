@@ -11,6 +11,10 @@ pub(crate) struct Candidate {
     pub response: f32,
 }
 
+/// Least contrast (grey levels, brightest minus darkest ring sample) of an X-junction in
+/// [`ring_test`] on a clean image.
+pub(crate) const MIN_CONTRAST: f64 = 8.0;
+
 /// Saddle candidates of `img` at blur `sigma`.
 ///
 /// Response `R = Ixy^2 - Ixx Iyy` (minus the Hessian determinant) of the image blurred with
@@ -18,8 +22,14 @@ pub(crate) struct Candidate {
 /// maxima above 1% of the strongest response that pass the ring test: on a circle of radius
 /// `ring` around the point, the blurred intensity crosses its mean exactly four times with
 /// enough contrast (two bright and two dark sectors, as at a chessboard corner, not at an
-/// edge end or a blob). At most `max_count` candidates, strongest first.
-pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate> {
+/// edge end or a blob), the brightest and darkest ring samples at least `min_contrast` grey
+/// levels apart. At most `max_count` candidates, strongest first.
+pub(crate) fn find(
+    blur: &ImageF,
+    ring: f64,
+    min_contrast: f64,
+    max_count: usize,
+) -> Vec<Candidate> {
     let (w, h) = (blur.w, blur.h);
     if w < 8 || h < 8 {
         return Vec::new();
@@ -98,7 +108,7 @@ pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate>
                 }
             }
             let (px, py) = (x as f64 + ox, y as f64 + oy);
-            if ring_test_with(blur, px, py, ring, &circle) {
+            if ring_test_with(blur, px, py, ring, min_contrast, &circle) {
                 out.push(Candidate {
                     x: px,
                     y: py,
@@ -116,10 +126,11 @@ pub(crate) fn find(blur: &ImageF, ring: f64, max_count: usize) -> Vec<Candidate>
 const RING_SAMPLES: usize = 24;
 
 /// True when the ring of radius `r` around `(x, y)` has two bright and two dark sectors,
-/// alternating, each sector at least two samples long, with the bright-dark contrast above
-/// 8 grey levels. Also requires that opposite sectors have the same colour.
-pub(crate) fn ring_test(img: &ImageF, x: f64, y: f64, r: f64) -> bool {
-    ring_test_with(img, x, y, r, &unit_circle())
+/// alternating, each sector at least two samples long, with the bright-dark contrast at least
+/// `min_contrast` grey levels ([`MIN_CONTRAST`] on a clean image, more on a noisy one). Also
+/// requires that opposite sectors have the same colour.
+pub(crate) fn ring_test(img: &ImageF, x: f64, y: f64, r: f64, min_contrast: f64) -> bool {
+    ring_test_with(img, x, y, r, min_contrast, &unit_circle())
 }
 
 fn unit_circle() -> [[f64; 2]; RING_SAMPLES] {
@@ -131,7 +142,14 @@ fn unit_circle() -> [[f64; 2]; RING_SAMPLES] {
     c
 }
 
-fn ring_test_with(img: &ImageF, x: f64, y: f64, r: f64, circle: &[[f64; 2]; RING_SAMPLES]) -> bool {
+fn ring_test_with(
+    img: &ImageF,
+    x: f64,
+    y: f64,
+    r: f64,
+    min_contrast: f64,
+    circle: &[[f64; 2]; RING_SAMPLES],
+) -> bool {
     let mut v = [0f32; RING_SAMPLES];
     for (s, c) in v.iter_mut().zip(circle) {
         *s = img.sample(x + r * c[0], y + r * c[1]);
@@ -141,7 +159,7 @@ fn ring_test_with(img: &ImageF, x: f64, y: f64, r: f64, circle: &[[f64; 2]; RING
         lo = lo.min(s);
         hi = hi.max(s);
     }
-    if hi - lo < 8.0 {
+    if f64::from(hi - lo) < min_contrast {
         return false;
     }
     let mid = 0.5 * (lo + hi);
