@@ -48,7 +48,7 @@ pub(crate) fn run(
     };
     let mut best_err = DetectError::NoBoard;
     let mut best_count = 0usize;
-    let mut levels: Vec<(usize, ImageF)> = Vec::new();
+    let mut levels: Vec<(usize, ImageF, f64)> = Vec::new();
     // Attempts: (total downscale, blur). The configured levels, then, when the image was
     // downscaled for the search, one more at a finer scale (a pixel budget four times
     // larger, at most 4x the time of a full search level): squares of 3-8 px, which the
@@ -71,7 +71,7 @@ pub(crate) fn run(
     }
     for (ff, sigma) in attempts {
         // Search images are made once per scale and only when a level needs them.
-        let idx = match levels.iter().position(|(k, _)| *k == ff) {
+        let idx = match levels.iter().position(|(k, _, _)| *k == ff) {
             Some(i) => i,
             None => {
                 let im = if ff == 1 {
@@ -79,7 +79,9 @@ pub(crate) fn run(
                 } else {
                     ImageF::from_view_downscaled(view, ff)
                 };
-                levels.push((ff, im));
+                // Its noise (grey levels), for the ring test's contrast limit below.
+                let noise = im.noise_sigma(NOISE_SAMPLE_STEP);
+                levels.push((ff, im, noise));
                 levels.len() - 1
             }
         };
@@ -88,8 +90,7 @@ pub(crate) fn run(
         // The ring test's contrast must stand above the noise left after the blur (white
         // noise of standard deviation `s` becomes `s / (2 sqrt(pi) sigma)`), or noise alone
         // forms X-junctions beyond the board and the grid outgrows it.
-        let blurred_noise =
-            levels[idx].1.noise_sigma(3) / (2.0 * std::f64::consts::PI.sqrt() * sigma);
+        let blurred_noise = levels[idx].2 / (2.0 * std::f64::consts::PI.sqrt() * sigma);
         let min_contrast = (RING_NOISE_CONTRAST * blurred_noise).max(candidates::MIN_CONTRAST);
         let cands = candidates::find(&blur, ring, min_contrast, 4000);
         let grids = grid::find_grids(&cands, &blur, &params);
@@ -144,6 +145,10 @@ pub(crate) fn run(
     }
     Err(best_err)
 }
+
+/// Pixel step (in both directions) of the noise estimates ([`ImageF::noise_sigma`]): a
+/// 640x360 image gives about 14 000 samples, enough for the median to a few percent.
+const NOISE_SAMPLE_STEP: usize = 4;
 
 /// The ring test's least contrast, in standard deviations of the search image's noise after
 /// its blur (at least [`candidates::MIN_CONTRAST`]). On the defects bench's low light c30n20
@@ -367,8 +372,9 @@ fn finish(
             // Blur only the board's bounding box (with room for the fit and the kernel).
             let margin = (r_noisy as f64 + 3.0 * sigma_noisy + 4.0).ceil();
             let (region, ox, oy) = board_region(view, &pts, margin);
-            let noise = region.noise_sigma(2);
-            let start: Vec<P> = pts.iter().map(|p| [p[0] - ox, p[1] - oy]).collect();
+            let noise = region.noise_sigma(NOISE_SAMPLE_STEP);
+            // The search's positions: a corner whose fit fails keeps its own.
+            let start = pts.clone();
             // Refines every corner from the search's position; returns the least certain
             // corner (index, predicted standard deviation in px).
             let refine_all = |pts: &mut [P], img: &ImageF, r: usize, sig: f64| {
@@ -376,8 +382,8 @@ fn finish(
                 let var_linear = noise * noise * fit.linear_noise_gain(sig);
                 let mut worst: Option<(usize, f64)> = None;
                 for (i, (p, s)) in pts.iter_mut().zip(&start).enumerate() {
-                    *p = [s[0] + ox, s[1] + oy];
-                    if let Some((q, curv)) = fit.refine_curvature(img, *s) {
+                    *p = *s;
+                    if let Some((q, curv)) = fit.refine_curvature(img, [s[0] - ox, s[1] - oy]) {
                         *p = [q[0] + ox, q[1] + oy];
                         let sd = SaddleFit::position_sigma(curv, var_linear);
                         if worst.is_none_or(|(_, w)| sd > w) {
