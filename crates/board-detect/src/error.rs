@@ -144,9 +144,11 @@ pub enum DetectError {
     /// (one standard deviation, in pixels, from the image noise measured around the board and
     /// the corner's sharpness, after the refinement window grew as far as the squares allow)
     /// is above `limit_px`, so corners more than a pixel off would be likely. Low light (a dark
-    /// image brightened by gain) gives it; more light, a longer exposure or less gain help.
+    /// image brightened by gain) gives it; more light, a longer exposure or less gain help. A
+    /// corner covered (a finger) or washed out, whose contrast is low whatever the light, can
+    /// give it too.
     #[error(
-        "too noisy for accurate corners: corner {index} is uncertain by {sigma_px:.2} px (one standard deviation, limit {limit_px:.2} px) with image noise {noise:.1} grey levels: too little contrast for the noise (more light or less gain)"
+        "too noisy for accurate corners: corner {index} is uncertain by {sigma_px:.2} px (one standard deviation, limit {limit_px:.2} px) with image noise {noise:.1} grey levels: too little contrast there for the noise (low light: more light or less gain; or the corner is covered or washed out)"
     )]
     TooNoisy {
         /// Row-major index of the least certain corner.

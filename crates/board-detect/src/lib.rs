@@ -178,7 +178,10 @@ pub struct DetectOptions {
     /// below about 4 px.
     pub search_max_pixels: u64,
     /// Search attempts, tried in turn until one finds the board. Coarse levels first: they
-    /// are cheap and find boards with large squares; finer ones find small squares.
+    /// are cheap and find boards with large squares; finer ones find small squares. The
+    /// default ends with a quarter-resolution level (images of at least 480 px a side), tried
+    /// only when the others found no whole board: it finds boards smeared by long motion blur
+    /// (15 px) or over-exposure, whose corners the finer levels see as ramps.
     pub search_levels: Vec<SearchLevel>,
     /// Sub-pixel refinement.
     pub refinement: Refinement,
@@ -216,6 +219,11 @@ impl Default for DetectOptions {
                     downscale: 1,
                     blur: 2.5,
                     min_side: 0,
+                },
+                SearchLevel {
+                    downscale: 4,
+                    blur: 1.0,
+                    min_side: 120,
                 },
             ],
             refinement: Refinement::Saddle {
