@@ -878,6 +878,13 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
         }
         let most = *counts.iter().max().unwrap_or(&1) as f64;
         let empty = counts.iter().filter(|&&c| c == 0).count();
+        // The `poor-coverage` warning's places: an arc of its radius around each image corner
+        // or edge midpoint that no used corner came that near.
+        let uncovered = calib_core::diagnostics::uncovered_places(
+            size,
+            all.iter().filter(|r| !r.2).map(|r| &r.0),
+        );
+        let reach = calib_core::diagnostics::COVERAGE_GAP * size.half_diagonal();
         let text = svg(
             |root| {
                 let map = colour_bar(root, most, "corners per cell (grey: none)")?;
@@ -904,11 +911,38 @@ fn camera_plots(camera: &ReportCamera, name: &str) -> DrawResult<CameraPlots> {
                         colour.filled(),
                     )
                 }))?;
+                // Clipped to the image by hand: the chart does not clip paths.
+                let (w, h) = (size.width as f64 - 0.5, size.height as f64 - 0.5);
+                for place in &uncovered {
+                    let arc: Vec<(f64, f64)> = (0..=96)
+                        .map(|k| {
+                            let t = std::f64::consts::TAU * k as f64 / 96.0;
+                            (
+                                (place.pixel.x + reach * t.cos()).clamp(-0.5, w),
+                                (place.pixel.y + reach * t.sin()).clamp(-0.5, h),
+                            )
+                        })
+                        .collect();
+                    c.draw_series(std::iter::once(PathElement::new(arc, RED.stroke_width(2))))?;
+                }
                 Ok(())
             },
             heat_size(size),
         )?;
-        plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: "How many corners the calibration used in each cell (grey: none; rejected outliers are not counted). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.".into() }, text));
+        let marked = if uncovered.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " Red: around each image corner or edge midpoint ({}) that no used corner came within {reach:.0} px of ({:.0}% of the half-diagonal), the reach of the poor-coverage warning (which leaves out a fisheye's places more than 90 degrees off-axis and places beyond the model's fold).",
+                uncovered
+                    .iter()
+                    .map(|p| p.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                100.0 * calib_core::diagnostics::COVERAGE_GAP
+            )
+        };
+        plots.push((Plot { file: format!("coverage-{name}.svg"), title: "Coverage".into(), caption: format!("How many corners the calibration used in each cell (grey: none; rejected outliers are not counted). The model is only constrained where corners were seen: empty corners and edges of the image are where a calibration extrapolates, and where distortion errors hide. Add views with the board there.{marked}") }, text));
     } else {
         notes.push("No observations were given (calib report --observations OBS.json): the residual, scatter, coverage and uncertainty plots are left out.".to_string());
     }

@@ -556,3 +556,87 @@ fn per_corner_plots_are_thinned_for_many_corners() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The coverage plot marks the `poor-coverage` warning's places: boards only in the middle of
+/// the image get a red arc around every image corner and edge midpoint, named in the caption;
+/// boards reaching every one of them get none.
+#[test]
+fn coverage_plot_marks_the_places_no_corner_reached() {
+    use calib_export::report::ReportView;
+    use camera_model::{AnyCamera, CameraModel, Intrinsics, Pose};
+    let dir = std::env::temp_dir().join(format!("calib-export-coverage-{}", std::process::id()));
+    let camera = AnyCamera::new(
+        CameraModel::BrownConrady4,
+        Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+        vec![-0.1, 0.0, 0.0, 0.0],
+    )
+    .unwrap();
+    // A 9x6 board of 10-unit squares facing the camera 500 units away, its centre at pixel
+    // (u, v): about 80 x 50 px.
+    let board: Vec<nalgebra::Point3<f64>> = (0..54)
+        .map(|i| nalgebra::Point3::new(10.0 * (i % 9) as f64, 10.0 * (i / 9) as f64, 0.0))
+        .collect();
+    let view_at = |u: f64, v: f64| {
+        // f = 500 at 500 units: a unit is a pixel at the board.
+        let (x, y) = (u - 319.5, v - 239.5);
+        let pose = Pose::new(
+            nalgebra::Matrix3::identity(),
+            nalgebra::Vector3::new(x - 40.0, y - 25.0, 500.0),
+        );
+        let pixels = board
+            .iter()
+            .map(|p| {
+                camera
+                    .project_camera_point(&pose.transform_point(p))
+                    .unwrap()
+            })
+            .collect();
+        ReportView {
+            name: format!("view at {u},{v}"),
+            pose,
+            rms: 0.1,
+            points: Some((board.clone(), pixels)),
+            rejected: Vec::new(),
+        }
+    };
+    let report = |views: Vec<ReportView>, name: &str| {
+        let input = one_camera_input("coverage", camera.clone(), views);
+        write_report(&input, &dir.join(name)).unwrap();
+        let page = std::fs::read_to_string(dir.join(name).join("index.html")).unwrap();
+        let svg = std::fs::read_to_string(dir.join(name).join("coverage-camera.svg")).unwrap();
+        well_formed_svg(&svg).unwrap();
+        (page, svg)
+    };
+    let middle: Vec<ReportView> = [(300.0, 220.0), (340.0, 260.0), (320.0, 240.0)]
+        .into_iter()
+        .map(|(u, v)| view_at(u, v))
+        .collect();
+    let (page, svg) = report(middle.clone(), "middle");
+    assert!(svg.contains("#FF0000"), "no red arc");
+    assert!(
+        page.contains("(top-left corner, top edge, top-right corner, right edge, bottom-right corner, bottom edge, bottom-left corner, left edge)")
+            && page.contains("within 100 px"),
+        "{page}"
+    );
+    // Boards whose centres sit 45 px in from each image corner and edge midpoint.
+    let mut everywhere = middle;
+    for (u, v) in [
+        (45.0, 30.0),
+        (319.5, 30.0),
+        (594.0, 30.0),
+        (594.0, 239.5),
+        (594.0, 449.0),
+        (319.5, 449.0),
+        (45.0, 449.0),
+        (45.0, 239.5),
+    ] {
+        everywhere.push(view_at(u, v));
+    }
+    let (page, svg) = report(everywhere, "everywhere");
+    assert!(!svg.contains("#FF0000"), "a red arc");
+    assert!(
+        !page.contains("the reach of the poor-coverage warning"),
+        "{page}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
