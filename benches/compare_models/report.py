@@ -225,6 +225,15 @@ def main(path):
         advised = [r for r in lined
                    if r['uncovered_disagreement']['pixels'] > (r['rows'][r['recommended']].get('cv') or 0)]
         p(f'  {label:<9}: {len(rs)} cases: warned {warned}, disagreement line {len(lined)}, advice {len(advised)}')
+    # By how wrong the recommended fit is somewhere over the image (its largest error against
+    # the truth): how many cases get the line, and with 1 px or more.
+    for lo, hi in ((0, 1), (1, 5), (5, np.inf)):
+        rs = [r for r in recs if r.get('recommended')
+              and (e := r['rows'][r['recommended']].get('grid_max')) is not None and lo <= e < hi]
+        lined = [r for r in rs if r.get('uncovered_disagreement')]
+        big = [r for r in lined if r['uncovered_disagreement']['pixels'] >= 1.0]
+        p(f'  recommended fit\'s largest error {lo} to {hi} px: {len(rs)} cases, disagreement line {len(lined)}, '
+          f'of 1 px or more {len(big)}')
     ratios = [r['uncovered_disagreement']['pixels'] / e for r in recs
               if r.get('recommended') and r.get('uncovered_disagreement')
               and (e := r['rows'][r['recommended']].get('grid_max')) and np.isfinite(e)]

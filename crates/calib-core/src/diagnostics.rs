@@ -373,8 +373,9 @@ fn coverage_warning(
                 || (place.pixel.x - k.cx).hypot(place.pixel.y - k.cy) <= validity.valid_radius_px;
             // A fisheye's image border beyond 90 degrees from the axis is, for the circular
             // fisheyes that reach so far, black: outside the image circle (the rendered
-            // `render_set kb --seed 1` set, fx 273 on 1280x960: its corners 112 degrees out by
-            // the fit). Full-frame fisheyes reach about 90 degrees at their corners.
+            // `render_set kb --seed 1` set, fx 273 on 1280x960, a 161-degree circle as the
+            // command prints: the warning named its black corners and side edges before this
+            // rule). Full-frame fisheyes reach about 90 degrees at their corners.
             let in_front = !camera.model.is_fisheye()
                 || camera
                     .pixel_to_ray(&place.pixel, &UndistortOptions::default())

@@ -644,11 +644,7 @@ impl ModelComparison {
             }
         }
         if let (Some(m), Some(d)) = (self.recommended, &self.uncovered_disagreement) {
-            let shown = self
-                .rows
-                .iter()
-                .find(|r| r.model == m)
-                .and_then(|r| r.cross_validated_rms);
+            let shown = self.row(m).and_then(|r| r.cross_validated_rms);
             let advice = if shown.is_none_or(|cv| d.pixels > cv) {
                 ": the cross-validation judges the models only where corners were seen; add views with the board near the image corners and edges (the poor-coverage warning names them) before trusting any of them there"
             } else {
