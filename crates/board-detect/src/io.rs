@@ -443,6 +443,27 @@ pub fn observations_json(results: &[ImageResult], board: &Board) -> Value {
 /// `camera` (the name), `image` and `reason`; `detection_seconds_per_image` (median over all
 /// images) and `board`.
 pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Board) -> Value {
+    let frames_given = cameras.iter().map(|(_, r)| r.len()).max().unwrap_or(0);
+    let frames: Vec<Vec<Option<usize>>> = (0..frames_given)
+        .map(|f| {
+            cameras
+                .iter()
+                .map(|(_, r)| (f < r.len()).then_some(f))
+                .collect()
+        })
+        .collect();
+    rig_observations_json_matched(cameras, &frames, board)
+}
+
+/// [`rig_observations_json`] for cameras that need not have an image of every frame:
+/// `frames[f][c]` is the index in `cameras[c].1` of camera `c`'s image of frame `f`, `None`
+/// when it has none (that camera is then not in the frame, and nothing is rejected). Images
+/// no frame refers to are left out. The frames are written in the order of `frames`.
+pub fn rig_observations_json_matched(
+    cameras: &[(String, Vec<ImageResult>)],
+    frames: &[Vec<Option<usize>>],
+    board: &Board,
+) -> Value {
     let obj: Value = Value::Array(board.object_points().iter().map(|p| json!(p)).collect());
     let names: Vec<Vec<String>> = cameras.iter().map(|(_, r)| image_names(r)).collect();
     let firsts: Vec<Option<([usize; 2], &str)>> = cameras
@@ -450,13 +471,15 @@ pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Boa
         .zip(&names)
         .map(|((_, r), n)| first_size(r, n))
         .collect();
-    let frames_given = cameras.iter().map(|(_, r)| r.len()).max().unwrap_or(0);
-    let mut frames = Vec::new();
+    let mut frames_json = Vec::with_capacity(frames.len());
     let mut rejected = Vec::new();
-    for f in 0..frames_given {
+    for frame in frames {
         let mut observations = Vec::new();
         for (c, (name, results)) in cameras.iter().enumerate() {
-            let (Some(r), Some(image)) = (results.get(f), names[c].get(f)) else {
+            let Some(i) = frame.get(c).copied().flatten() else {
+                continue;
+            };
+            let (Some(r), Some(image)) = (results.get(i), names[c].get(i)) else {
                 continue;
             };
             match usable(r, firsts[c], &format!("{name} ")) {
@@ -470,7 +493,7 @@ pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Boa
                 }
             }
         }
-        frames.push(json!({"object_points": obj.clone(), "observations": observations}));
+        frames_json.push(json!({"object_points": obj.clone(), "observations": observations}));
     }
     let camera_list: Vec<Value> = cameras
         .iter()
@@ -482,7 +505,7 @@ pub fn rig_observations_json(cameras: &[(String, Vec<ImageResult>)], board: &Boa
         .collect();
     json!({
         "cameras": camera_list,
-        "frames": frames,
+        "frames": frames_json,
         "rejected_images": rejected,
         "detection_seconds_per_image": median(cameras.iter().flat_map(|(_, r)| r.iter()).filter_map(|r| r.detection_seconds).collect()),
         "board": board_json(board),

@@ -25,6 +25,15 @@ pub struct BoardArgs {
     /// is an input image); other files in DIR are left alone.
     #[arg(long, value_name = "DIR")]
     pub draw: Option<PathBuf>,
+    /// Match the cameras' images by the number in their file names instead of by their order
+    /// (`calib stereo`, `calib rig`, `calib detect` with --right or --camera): the last run of
+    /// digits, leading zeros ignored (`left07.jpg` goes with `right7.png`, `cam0/000123.png`
+    /// with `cam1/000123.png`). A camera may then lack images of some frames: a stereo pair is
+    /// made of the numbers both cameras have (an image without a partner is listed in
+    /// rejected_pairs), a rig frame holds the cameras that have its number. Every image needs a
+    /// number, and each number one image per camera.
+    #[arg(long)]
+    pub frames_by_number: bool,
 }
 
 impl BoardArgs {
@@ -53,7 +62,8 @@ pub struct DetectArgs {
     pub right: Vec<PathBuf>,
     /// A camera's name and its images in frame order, repeated per camera (--camera left
     /// L1.jpg ... --camera right R1.jpg ...): writes the rig observation file of `calib rig`
-    /// (frame f is every camera's f-th image).
+    /// (frame f is every camera's f-th image, or with --frames-by-number the images numbered
+    /// alike).
     #[arg(
         long = "camera",
         num_args = 2..,
@@ -284,6 +294,17 @@ pub fn single_observations(
     Ok((results, file))
 }
 
+/// Refuses `--frames-by-number` where there is one camera (`what`: the command): it matches
+/// the images of several.
+pub fn refuse_frames_by_number(args: &BoardArgs, what: &str) -> Result<(), Failure> {
+    if args.frames_by_number {
+        return Err(Failure(format!(
+            "--frames-by-number matches the images of several cameras (calib stereo, calib rig, calib detect with --right or --camera); {what} has one camera"
+        )));
+    }
+    Ok(())
+}
+
 /// The number in a file name: its stem's last run of digits, without leading zeros (`left07.jpg`
 /// -> `7`), or `None`.
 fn file_number(path: &Path) -> Option<String> {
@@ -330,6 +351,45 @@ fn check_frame_numbers(cameras: &[(&str, &[PathBuf])], what: &str) -> Result<(),
     }
 }
 
+/// A frame matched by file number: the number, and per camera the index of its image of the
+/// frame (`None`: the camera has none).
+type NumberedFrame = (String, Vec<Option<usize>>);
+
+/// The frames of `cameras` matched by [`file_number`] (`--frames-by-number`): each frame's
+/// number and, per camera, the index of its image of that frame (`None`: it has none), in
+/// increasing order of the numbers. Fails, naming the image, when an image has no number or
+/// two images of one camera have the same number.
+fn frames_by_number(cameras: &[(&str, &[PathBuf])]) -> Result<Vec<NumberedFrame>, Failure> {
+    let mut frames: std::collections::BTreeMap<(usize, String), Vec<Option<usize>>> =
+        Default::default();
+    for (c, (name, paths)) in cameras.iter().enumerate() {
+        for (i, path) in paths.iter().enumerate() {
+            let number = file_number(path).ok_or_else(|| {
+                Failure(format!(
+                    "--frames-by-number: {} (camera '{name}') has no number in its file name to match it by; rename it, or match the images by their order (leave out --frames-by-number)",
+                    path.display()
+                ))
+            })?;
+            // Numbers without leading zeros compare by length, then digit by digit.
+            let slots = frames
+                .entry((number.len(), number.clone()))
+                .or_insert_with(|| vec![None; cameras.len()]);
+            if let Some(earlier) = slots[c] {
+                return Err(Failure(format!(
+                    "--frames-by-number: {} and {} (camera '{name}') have the same number {number}: give each camera one image per number",
+                    paths[earlier].display(),
+                    path.display()
+                )));
+            }
+            slots[c] = Some(i);
+        }
+    }
+    Ok(frames
+        .into_iter()
+        .map(|((_, number), slots)| (number, slots))
+        .collect())
+}
+
 /// Detects the board in paired images and returns the stereo observation file; fails when no
 /// pair has the board in both images. Overlays go to `DIR/left/` and `DIR/right/`.
 pub fn stereo_observations(
@@ -339,9 +399,12 @@ pub fn stereo_observations(
     args: &BoardArgs,
     threads: usize,
 ) -> Result<(Vec<ImageResult>, Value), Failure> {
+    if args.frames_by_number {
+        return stereo_observations_by_number(left, right, board, args, threads);
+    }
     if left.len() != right.len() {
         return Err(Failure(format!(
-            "{} left images but {} right images: the pairs are matched in order, so the counts must be equal",
+            "{} left images but {} right images: the pairs are matched in order, so the counts must be equal (or match them by the numbers in their file names: --frames-by-number)",
             left.len(),
             right.len()
         )));
@@ -364,6 +427,88 @@ pub fn stereo_observations(
     Ok((all, file))
 }
 
+/// [`stereo_observations`] with the pairs matched by file number (`--frames-by-number`): the
+/// numbers both cameras have, in increasing order; an image whose number the other camera
+/// lacks is not detected and is listed in `rejected_pairs` ("no right image numbered 12").
+fn stereo_observations_by_number(
+    left: &[PathBuf],
+    right: &[PathBuf],
+    board: &Board,
+    args: &BoardArgs,
+    threads: usize,
+) -> Result<(Vec<ImageResult>, Value), Failure> {
+    let frames = frames_by_number(&[("left", left), ("right", right)])?;
+    let (mut l_paths, mut r_paths, mut unpaired) = (Vec::new(), Vec::new(), Vec::new());
+    for (number, slots) in &frames {
+        match (slots[0], slots[1]) {
+            (Some(l), Some(r)) => {
+                l_paths.push(left[l].clone());
+                r_paths.push(right[r].clone());
+            }
+            (Some(l), None) => unpaired.push(serde_json::json!({
+                "left_image": file_name(&left[l]),
+                "right_image": null,
+                "reason": format!("no right image numbered {number}"),
+            })),
+            (None, Some(r)) => unpaired.push(serde_json::json!({
+                "left_image": null,
+                "right_image": file_name(&right[r]),
+                "reason": format!("no left image numbered {number}"),
+            })),
+            (None, None) => {}
+        }
+    }
+    if l_paths.is_empty() {
+        return Err(Failure(format!(
+            "--frames-by-number: no number is in both the left images ({}) and the right ones ({}): check that both lists are of the same capture",
+            describe_numbers(&frames, 0),
+            describe_numbers(&frames, 1)
+        )));
+    }
+    let overlays = args
+        .draw
+        .as_ref()
+        .map(|dir| overlay_paths(dir, &[("left", &l_paths), ("right", &r_paths)]));
+    if let Some(overlays) = &overlays {
+        check_overlays(&[&overlays[0], &overlays[1]], &[&l_paths, &r_paths])?;
+    }
+    let overlays_of = |k: usize| overlays.as_ref().map(|o| o[k].as_slice());
+    let l = detect_all(&l_paths, board, overlays_of(0), threads, "left ")?;
+    let r = detect_all(&r_paths, board, overlays_of(1), threads, "right ")?;
+    let mut file = board_detect::stereo_observations_json(&l, &r, board);
+    if let Some(rejected) = file["rejected_pairs"].as_array_mut() {
+        rejected.extend(unpaired);
+    }
+    require_views(&file, frames.len(), true)?;
+    let mut all = l;
+    all.extend(r);
+    Ok((all, file))
+}
+
+/// The file name (last component) of `path`, as the observation files name images.
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+/// Camera `c`'s numbers in `frames`, for a message: "1 to 29 (29 images)" or the few there are.
+fn describe_numbers(frames: &[NumberedFrame], c: usize) -> String {
+    let numbers: Vec<&str> = frames
+        .iter()
+        .filter(|(_, slots)| slots[c].is_some())
+        .map(|(n, _)| n.as_str())
+        .collect();
+    match numbers.as_slice() {
+        [] => "none".into(),
+        [one] => format!("number {one}"),
+        [first, .., last] if numbers.len() > 4 => {
+            format!("{first} to {last}, {} images", numbers.len())
+        }
+        all => format!("numbers {}", all.join(", ")),
+    }
+}
+
 /// Detects the board in every camera's images, frame `f` being each camera's `f`-th image, and
 /// returns the rig observation file ([`board_detect::rig_observations_json`]); fails when the
 /// cameras give different numbers of images or a camera has no image with the board. Overlays
@@ -374,19 +519,24 @@ pub fn rig_observations(
     args: &BoardArgs,
     threads: usize,
 ) -> Result<(Vec<ImageResult>, Value), Failure> {
-    let frames = cameras.first().map_or(0, |(_, p)| p.len());
-    if let Some((name, paths)) = cameras.iter().find(|(_, p)| p.len() != frames) {
-        return Err(Failure(format!(
-            "camera '{name}' has {} images but camera '{}' has {frames}: frames are matched in order (the f-th image of every camera is frame f), so every camera needs one image per frame, in the same order",
-            paths.len(),
-            cameras[0].0
-        )));
-    }
     let named: Vec<(&str, &[PathBuf])> = cameras
         .iter()
         .map(|(n, p)| (n.as_str(), p.as_slice()))
         .collect();
-    check_frame_numbers(&named, "frame")?;
+    let matched = if args.frames_by_number {
+        Some(frames_by_number(&named)?)
+    } else {
+        let frames = cameras.first().map_or(0, |(_, p)| p.len());
+        if let Some((name, paths)) = cameras.iter().find(|(_, p)| p.len() != frames) {
+            return Err(Failure(format!(
+                "camera '{name}' has {} images but camera '{}' has {frames}: frames are matched in order (the f-th image of every camera is frame f), so every camera needs one image per frame, in the same order (or match them by the numbers in their file names: --frames-by-number)",
+                paths.len(),
+                cameras[0].0
+            )));
+        }
+        check_frame_numbers(&named, "frame")?;
+        None
+    };
     let overlays = args.draw.as_ref().map(|dir| overlay_paths(dir, &named));
     if let Some(overlays) = &overlays {
         let outs: Vec<&[PathBuf]> = overlays.iter().map(Vec::as_slice).collect();
@@ -404,7 +554,13 @@ pub fn rig_observations(
         require_views(&one, results.len(), false)
             .map_err(|Failure(m)| Failure(format!("camera '{name}': {m}")))?;
     }
-    let file = board_detect::rig_observations_json(&detected, board);
+    let file = match matched {
+        Some(frames) => {
+            let slots: Vec<Vec<Option<usize>>> = frames.into_iter().map(|(_, s)| s).collect();
+            board_detect::rig_observations_json_matched(&detected, &slots, board)
+        }
+        None => board_detect::rig_observations_json(&detected, board),
+    };
     Ok((detected.into_iter().flat_map(|(_, r)| r).collect(), file))
 }
 
@@ -434,28 +590,53 @@ impl Skipped {
         }
     }
 
-    /// The `images-skipped` warning, or none when every image was used.
+    /// The `images-skipped` warning, or none when every image was used: the images (pairs)
+    /// without a usable board, and apart from them the images `--frames-by-number` found no
+    /// partner for.
     pub fn warning(&self) -> Option<calib_core::Warning> {
         if self.entries.is_empty() {
             return None;
         }
-        let names: Vec<String> = self
-            .entries
-            .iter()
-            .map(|r| match r["image"].as_str() {
-                Some(name) => name.to_string(),
-                None => format!(
-                    "{} / {}",
-                    r["left_image"].as_str().unwrap_or("-"),
-                    r["right_image"].as_str().unwrap_or("-")
-                ),
-            })
-            .collect();
-        let shown = names.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
-        let more = match names.len() {
-            n if n > 5 => format!(" and {} more", n - 5),
-            _ => String::new(),
+        let name = |r: &Value| match r["image"].as_str() {
+            Some(name) => name.to_string(),
+            None => format!(
+                "{} / {}",
+                r["left_image"].as_str().unwrap_or("-"),
+                r["right_image"].as_str().unwrap_or("-")
+            ),
         };
+        let unpaired = |r: &&Value| {
+            r["reason"].as_str().is_some_and(|t| {
+                t.starts_with("no left image numbered") || t.starts_with("no right image numbered")
+            })
+        };
+        let list = |entries: Vec<&Value>| {
+            let shown: Vec<String> = entries.iter().take(5).map(|r| name(r)).collect();
+            let more = match entries.len() {
+                n if n > 5 => format!(" and {} more", n - 5),
+                _ => String::new(),
+            };
+            format!("{}{more}", shown.join(", "))
+        };
+        let (without_partner, without_board): (Vec<&Value>, Vec<&Value>) =
+            self.entries.iter().partition(|r| unpaired(r));
+        let advice = match (without_board.is_empty(), without_partner.is_empty()) {
+            (false, true) => "retake them or check --board",
+            (true, false) => "check that the other camera's images of those numbers were given",
+            _ => {
+                "retake those without a board or check --board, and check that the other camera's images of the other numbers were given"
+            }
+        };
+        let mut parts = Vec::new();
+        if !without_board.is_empty() {
+            parts.push(format!("no usable board: {}", list(without_board)));
+        }
+        if !without_partner.is_empty() {
+            parts.push(format!(
+                "no image of the other camera with the same number: {}",
+                list(without_partner)
+            ));
+        }
         let what = if self.key == "rejected_pairs" {
             "image pairs"
         } else {
@@ -464,9 +645,10 @@ impl Skipped {
         Some(calib_core::Warning::new(
             calib_core::WarningCode::ImagesSkipped,
             format!(
-                "{} of {} {what} left out, no usable board: {shown}{more} (reasons in the result's {}; retake them or check --board)",
-                names.len(),
+                "{} of {} {what} left out, {} (reasons in the result's {}; {advice})",
+                self.entries.len(),
                 self.total,
+                parts.join("; "),
                 self.key
             ),
         ))
@@ -500,6 +682,7 @@ pub fn run(args: &DetectArgs) -> Result<(), Failure> {
             .collect();
         rig_observations(&cameras, &board, &args.board, args.threads)?
     } else if args.right.is_empty() {
+        refuse_frames_by_number(&args.board, "calib detect without --right or --camera")?;
         single_observations(&args.images, &board, &args.board, args.threads)?
     } else {
         stereo_observations(&args.images, &args.right, &board, &args.board, args.threads)?

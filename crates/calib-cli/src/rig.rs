@@ -22,8 +22,10 @@ pub struct RigArgs {
     pub board: BoardArgs,
     /// A camera's name and its photographs, one per frame in frame order (repeat per camera:
     /// --camera left L1.jpg L2.jpg ... --camera right R1.jpg R2.jpg ...). Frame f is the f-th
-    /// image of every camera, so every camera gives the same number of images; an image without
-    /// a usable board leaves that camera out of that frame (listed in rejected_images).
+    /// image of every camera, so every camera gives the same number of images (with
+    /// --frames-by-number, frames are matched by the numbers in the file names instead, and a
+    /// camera may lack some); an image without a usable board leaves that camera out of that
+    /// frame (listed in rejected_images).
     #[arg(
         long = "camera",
         num_args = 2..,
@@ -210,6 +212,11 @@ fn observations(
                 "--board: {input} is an observation file; with --board give each camera's photographs with --camera NAME IMAGE..."
             )));
         }
+        if args.board.frames_by_number {
+            return Err(Failure(format!(
+                "--frames-by-number: {input} is an observation file, whose frames are already matched; the option matches photographs (--camera NAME IMAGE...)"
+            )));
+        }
         if looks_like_image(input) {
             return Err(Failure(format!(
                 "{input} is an image: give each camera's photographs with --board COLSxROWS --square SIZE --camera NAME IMAGE... (or detect the corners first and write a rig observation file)"
@@ -239,7 +246,7 @@ fn observations(
     let (results, file) =
         detect::rig_observations(&cameras, &board, &args.board, args.camera.threads)?;
     args.output.say().text(&detect::summary(&results, &file))?;
-    let frames = cameras[0].1.len();
+    let frames = file["frames"].as_array().map_or(0, Vec::len);
     let skipped = detect::Skipped::from_file(&file, results.len());
     let observations = RigObservations::from_file(serde_json::from_value(file)?);
     Ok((

@@ -325,6 +325,7 @@ fn observations(
 ) -> Result<(Observations, String, Option<detect::Skipped>), Failure> {
     let inputs: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     args.output.check_against(&inputs)?;
+    detect::refuse_frames_by_number(&args.board, "calib single")?;
     match args.board.board()? {
         Some(board) => {
             let paths: Vec<PathBuf> = args.inputs.iter().map(PathBuf::from).collect();

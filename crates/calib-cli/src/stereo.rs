@@ -193,13 +193,15 @@ fn observations(
                 args.camera.threads,
             )?;
             args.output.say().text(&detect::summary(&results, &file))?;
-            let skipped = detect::Skipped::from_file(&file, left.len());
+            // Every pair given is either used or rejected (with --frames-by-number the pairs
+            // are the numbers either camera has).
+            let given = ["pairs", "rejected_pairs"]
+                .iter()
+                .map(|k| file[*k].as_array().map_or(0, Vec::len))
+                .sum();
+            let skipped = detect::Skipped::from_file(&file, given);
             let observations = StereoObservations::from_file(serde_json::from_value(file)?);
-            Ok((
-                observations,
-                format!("{} image pairs", args.inputs.len()),
-                Some(skipped),
-            ))
+            Ok((observations, format!("{given} image pairs"), Some(skipped)))
         }
         None => {
             let ([path], true) = (args.inputs.as_slice(), args.right.is_empty()) else {
@@ -207,6 +209,11 @@ fn observations(
                     "give one stereo observation file, or images with --board COLSxROWS --square SIZE and --right".into(),
                 ));
             };
+            if args.board.frames_by_number {
+                return Err(Failure(format!(
+                    "--frames-by-number: {path} is an observation file, whose pairs are already matched; the option matches photographs (--board COLSxROWS --square SIZE and --right)"
+                )));
+            }
             if looks_like_image(path) {
                 return Err(Failure(format!(
                     "{path} is an image: give --board COLSxROWS and --square SIZE to detect the board"

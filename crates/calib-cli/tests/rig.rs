@@ -659,3 +659,216 @@ fn a_rig_is_calibrated_from_photographs() {
         .unwrap();
     assert_eq!(run.status.code(), Some(2));
 }
+
+/// `--frames-by-number`: the cameras' images are matched by the numbers in their file names, so
+/// a camera may lack some frames and the lists may come in any order. Shuffled lists give the
+/// same rig observation file as the lists in order; with images missing from either camera the
+/// frames keep the numbers (a frame a camera has no image of holds the other camera alone,
+/// nothing is rejected) and the rig calibrates; stereo pairs only the numbers both have and
+/// lists the others; images without a number, numbers given twice, one camera and observation
+/// files are refused.
+#[test]
+fn frames_are_matched_by_file_number() {
+    let (left, right) = (images("left", 1..=29), images("right", 1..=29));
+    let detect = |left: &[String], right: &[String], by_number: bool, out: &std::path::Path| {
+        let mut c = calib();
+        c.args(["detect", "-q", "--board", "9x6", "--square", "24.23"])
+            .arg("--camera")
+            .arg("left")
+            .args(left)
+            .arg("--camera")
+            .arg("right")
+            .args(right)
+            .arg("-o")
+            .arg(out);
+        if by_number {
+            c.arg("--frames-by-number");
+        }
+        c
+    };
+    let in_order = temp("by-number-in-order.json");
+    run_ok(&mut detect(&left, &right, false, &in_order));
+    // Every third image first, the right list reversed: the numbers restore the frames.
+    let mut shuffled_left: Vec<String> = left.iter().step_by(3).cloned().collect();
+    shuffled_left.extend(
+        left.iter()
+            .enumerate()
+            .filter(|(i, _)| i % 3 != 0)
+            .map(|(_, p)| p.clone()),
+    );
+    let reversed_right: Vec<String> = right.iter().rev().cloned().collect();
+    let by_number = temp("by-number-shuffled.json");
+    run_ok(&mut detect(
+        &shuffled_left,
+        &reversed_right,
+        true,
+        &by_number,
+    ));
+    assert_eq!(json(&by_number)["frames"], json(&in_order)["frames"]);
+
+    // Right images 4 and 9 and left image 20 missing.
+    let right_some: Vec<String> = right
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| ![3, 8].contains(i))
+        .map(|(_, p)| p.clone())
+        .collect();
+    let left_some: Vec<String> = left
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != 19)
+        .map(|(_, p)| p.clone())
+        .collect();
+    let rig = temp("by-number-rig.json");
+    run_ok(
+        calib()
+            .args([
+                "rig",
+                "-q",
+                "--board",
+                "9x6",
+                "--square",
+                "24.23",
+                "--frames-by-number",
+            ])
+            .arg("--camera")
+            .arg("left")
+            .args(&left_some)
+            .arg("--camera")
+            .arg("right")
+            .args(&right_some)
+            .arg("-o")
+            .arg(&rig),
+    );
+    let result = json(&rig);
+    let frames = result["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 29);
+    // The cameras (0 left, 1 right) in frame `index` (the frames in increasing number order).
+    let cameras = |index: usize| -> Vec<u64> {
+        let frame = frames.iter().find(|f| f["index"] == index).unwrap();
+        frame["views"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v["camera"].as_u64().unwrap())
+            .collect()
+    };
+    assert_eq!(cameras(3), [0]);
+    assert_eq!(cameras(8), [0]);
+    assert_eq!(cameras(19), [1]);
+    assert_eq!(cameras(20), [0, 1]);
+    assert_eq!(result["rejected_images"].as_array().map_or(0, Vec::len), 0);
+    // Views matched wrongly would fail the rig's checks or leave pixels of error.
+    let rms = result["rms"].as_f64().unwrap();
+    assert!(rms < 0.3, "RMS {rms}");
+
+    // Stereo from the same lists: 26 pairs, the three unmatched images listed.
+    let stereo = temp("by-number-stereo.json");
+    run_ok(
+        calib()
+            .args([
+                "detect",
+                "-q",
+                "--board",
+                "9x6",
+                "--square",
+                "24.23",
+                "--frames-by-number",
+            ])
+            .args(&left_some)
+            .arg("--right")
+            .args(&right_some)
+            .arg("-o")
+            .arg(&stereo),
+    );
+    let file = json(&stereo);
+    assert_eq!(file["pairs"].as_array().unwrap().len(), 26);
+    let reasons: Vec<&str> = file["rejected_pairs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["reason"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        reasons,
+        [
+            "no right image numbered 4",
+            "no right image numbered 9",
+            "no left image numbered 20"
+        ]
+    );
+
+    // calib stereo calibrates those pairs and names the images left without a partner.
+    let stereo_result = temp("by-number-stereo-result.json");
+    run_ok(
+        calib()
+            .args([
+                "stereo",
+                "-q",
+                "--board",
+                "9x6",
+                "--square",
+                "24.23",
+                "--frames-by-number",
+            ])
+            .args(&left_some)
+            .arg("--right")
+            .args(&right_some)
+            .arg("-o")
+            .arg(&stereo_result),
+    );
+    let warnings = json(&stereo_result)["warnings"].clone();
+    let skipped = warnings
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|w| w["code"] == "images-skipped")
+        .unwrap_or_else(|| panic!("{warnings}"));
+    assert!(
+        skipped["message"].as_str().unwrap().starts_with(
+            "3 of 29 image pairs left out, no image of the other camera with the same number: left4.jpg / -, left9.jpg / -, - / right20.jpg"
+        ),
+        "{skipped}"
+    );
+
+    // Refusals, each naming what is wrong.
+    let refused = |command: &mut Command, expected: &str| {
+        let run = command.output().unwrap();
+        let message = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && message.contains(expected),
+            "{message}"
+        );
+    };
+    let unnumbered = temp("left-extra.jpg");
+    std::fs::copy(&left[0], &unnumbered).unwrap();
+    let mut with_unnumbered = left.clone();
+    with_unnumbered.push(unnumbered.to_string_lossy().into_owned());
+    refused(
+        &mut detect(&with_unnumbered, &right, true, &temp("x.json")),
+        "left-extra.jpg (camera 'left') has no number in its file name",
+    );
+    let twice = temp("left01.jpg");
+    std::fs::copy(&left[0], &twice).unwrap();
+    let mut with_twice = left.clone();
+    with_twice.push(twice.to_string_lossy().into_owned());
+    refused(
+        &mut detect(&with_twice, &right, true, &temp("x.json")),
+        "(camera 'left') have the same number 1",
+    );
+    refused(
+        calib()
+            .args(["single", "--board", "9x6", "--frames-by-number"])
+            .args(&left),
+        "calib single has one camera",
+    );
+    refused(
+        calib().args(["rig", "--frames-by-number"]).arg(&in_order),
+        "is an observation file, whose frames are already matched",
+    );
+    // Unequal counts in order point to the option.
+    refused(
+        &mut detect(&left, &right_some, false, &temp("x.json")),
+        "--frames-by-number",
+    );
+}
