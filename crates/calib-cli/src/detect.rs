@@ -492,7 +492,7 @@ fn file_name(path: &Path) -> String {
         .unwrap_or_else(|| path.display().to_string())
 }
 
-/// Camera `c`'s numbers in `frames`, for a message: "1 to 29 (29 images)" or the few there are.
+/// Camera `c`'s numbers in `frames`, for a message: "1 to 29, 29 images", or the few there are.
 fn describe_numbers(frames: &[NumberedFrame], c: usize) -> String {
     let numbers: Vec<&str> = frames
         .iter()
