@@ -410,6 +410,20 @@ pub fn stereo_observations(
         )));
     }
     check_frame_numbers(&[("left", left), ("right", right)], "pair")?;
+    let (all, file) = detect_pairs(left, right, board, args, threads)?;
+    require_views(&file, left.len(), true)?;
+    Ok((all, file))
+}
+
+/// Detects the board in `left[i]` and `right[i]` (overlays to `DIR/left/` and `DIR/right/`):
+/// every result (left ones first) and the stereo observation file.
+fn detect_pairs(
+    left: &[PathBuf],
+    right: &[PathBuf],
+    board: &Board,
+    args: &BoardArgs,
+    threads: usize,
+) -> Result<(Vec<ImageResult>, Value), Failure> {
     let overlays = args
         .draw
         .as_ref()
@@ -421,7 +435,6 @@ pub fn stereo_observations(
     let l = detect_all(left, board, overlays_of(0), threads, "left ")?;
     let r = detect_all(right, board, overlays_of(1), threads, "right ")?;
     let file = board_detect::stereo_observations_json(&l, &r, board);
-    require_views(&file, left.len(), true)?;
     let mut all = l;
     all.extend(r);
     Ok((all, file))
@@ -465,23 +478,11 @@ fn stereo_observations_by_number(
             describe_numbers(&frames, 1)
         )));
     }
-    let overlays = args
-        .draw
-        .as_ref()
-        .map(|dir| overlay_paths(dir, &[("left", &l_paths), ("right", &r_paths)]));
-    if let Some(overlays) = &overlays {
-        check_overlays(&[&overlays[0], &overlays[1]], &[&l_paths, &r_paths])?;
-    }
-    let overlays_of = |k: usize| overlays.as_ref().map(|o| o[k].as_slice());
-    let l = detect_all(&l_paths, board, overlays_of(0), threads, "left ")?;
-    let r = detect_all(&r_paths, board, overlays_of(1), threads, "right ")?;
-    let mut file = board_detect::stereo_observations_json(&l, &r, board);
+    let (all, mut file) = detect_pairs(&l_paths, &r_paths, board, args, threads)?;
     if let Some(rejected) = file["rejected_pairs"].as_array_mut() {
         rejected.extend(unpaired);
     }
     require_views(&file, frames.len(), true)?;
-    let mut all = l;
-    all.extend(r);
     Ok((all, file))
 }
 

@@ -763,24 +763,21 @@ fn frames_are_matched_by_file_number() {
     assert!(rms < 0.3, "RMS {rms}");
 
     // Stereo from the same lists: 26 pairs, the three unmatched images listed.
+    let pairs_by_number = |command: &str, out: &std::path::Path| {
+        run_ok(
+            calib()
+                .args([command, "-q", "--board", "9x6", "--square", "24.23"])
+                .arg("--frames-by-number")
+                .args(&left_some)
+                .arg("--right")
+                .args(&right_some)
+                .arg("-o")
+                .arg(out),
+        );
+        json(out)
+    };
     let stereo = temp("by-number-stereo.json");
-    run_ok(
-        calib()
-            .args([
-                "detect",
-                "-q",
-                "--board",
-                "9x6",
-                "--square",
-                "24.23",
-                "--frames-by-number",
-            ])
-            .args(&left_some)
-            .arg("--right")
-            .args(&right_some)
-            .arg("-o")
-            .arg(&stereo),
-    );
+    pairs_by_number("detect", &stereo);
     let file = json(&stereo);
     assert_eq!(file["pairs"].as_array().unwrap().len(), 26);
     let reasons: Vec<&str> = file["rejected_pairs"]
@@ -799,25 +796,8 @@ fn frames_are_matched_by_file_number() {
     );
 
     // calib stereo calibrates those pairs and names the images left without a partner.
-    let stereo_result = temp("by-number-stereo-result.json");
-    run_ok(
-        calib()
-            .args([
-                "stereo",
-                "-q",
-                "--board",
-                "9x6",
-                "--square",
-                "24.23",
-                "--frames-by-number",
-            ])
-            .args(&left_some)
-            .arg("--right")
-            .args(&right_some)
-            .arg("-o")
-            .arg(&stereo_result),
-    );
-    let warnings = json(&stereo_result)["warnings"].clone();
+    let warnings =
+        pairs_by_number("stereo", &temp("by-number-stereo-result.json"))["warnings"].clone();
     let skipped = warnings
         .as_array()
         .unwrap()
