@@ -776,9 +776,7 @@ fn frames_are_matched_by_file_number() {
         );
         json(out)
     };
-    let stereo = temp("by-number-stereo.json");
-    pairs_by_number("detect", &stereo);
-    let file = json(&stereo);
+    let file = pairs_by_number("detect", &temp("by-number-stereo.json"));
     assert_eq!(file["pairs"].as_array().unwrap().len(), 26);
     let reasons: Vec<&str> = file["rejected_pairs"]
         .as_array()
