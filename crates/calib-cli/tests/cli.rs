@@ -1475,3 +1475,52 @@ fn negative_lists_of_numbers_are_values() {
         "{err}"
     );
 }
+
+/// `--bootstrap N`: the `bootstrap` object in the JSON and the summary's lines next to the
+/// linearized sigmas; N below 10, or --bootstrap-warm alone, or with --compare-models, refused.
+#[test]
+fn bootstrap_is_opt_in_and_checked() {
+    let obs = temp("bootstrap-obs.json");
+    run_ok(
+        calib()
+            .args(["synth", "single", "--views", "8", "-o"])
+            .arg(&obs),
+    );
+    let out = temp("bootstrap-result.json");
+    let run = run_ok(
+        calib()
+            .args(["single", "--bootstrap", "10"])
+            .arg(&obs)
+            .arg("-o")
+            .arg(&out),
+    );
+    let summary = String::from_utf8(run.stdout).unwrap();
+    assert!(
+        summary.contains("view bootstrap (10 resamples)"),
+        "{summary}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(json["bootstrap"]["resamples"], 10);
+    assert!(json["bootstrap"]["std"]["fx"].as_f64().unwrap() > 0.0);
+    // Without the option the result has no bootstrap.
+    run_ok(
+        calib()
+            .arg("single")
+            .arg(&obs)
+            .arg("-q")
+            .arg("-o")
+            .arg(&out),
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(json.get("bootstrap").is_none());
+    for args in [
+        &["--bootstrap", "9"][..],
+        &["--bootstrap-warm"][..],
+        &["--bootstrap", "10", "--compare-models"][..],
+    ] {
+        let run = calib().arg("single").arg(&obs).args(args).output().unwrap();
+        assert!(!run.status.success(), "{args:?}");
+    }
+}

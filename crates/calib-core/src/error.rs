@@ -169,6 +169,11 @@ pub enum CalibrationError {
     /// An invalid option value.
     #[error("invalid option: {0}")]
     InvalidOption(String),
+    /// The view bootstrap (`calib_single::bootstrap`) cannot estimate a spread: too few
+    /// resamples asked for, too few views, or too few refits that succeeded (the reason says
+    /// which).
+    #[error("bootstrap: {0}")]
+    Bootstrap(String),
     /// The solver could not be set up or started.
     #[error("solver: {0}")]
     Solver(#[from] SolverError),

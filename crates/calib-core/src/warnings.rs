@@ -36,6 +36,9 @@ pub enum WarningCode {
     /// The errors vary with the distance from the principal point far beyond the noise: the
     /// lens model does not fit, and the standard deviations do not cover that misfit.
     ModelMisfit,
+    /// A parameter's view-bootstrap standard deviation far exceeds its linearized sigma: the
+    /// linearized sigmas of the fit understate its uncertainty.
+    BootstrapSpread,
     /// A code written by a newer version.
     #[serde(other)]
     Other,
@@ -57,6 +60,7 @@ impl WarningCode {
             WarningCode::ModelInvalid => "model-invalid",
             WarningCode::ImagesSkipped => "images-skipped",
             WarningCode::ModelMisfit => "model-misfit",
+            WarningCode::BootstrapSpread => "bootstrap-spread",
             WarningCode::Other => "other",
         }
     }

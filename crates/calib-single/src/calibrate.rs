@@ -113,6 +113,7 @@ pub fn calibrate(
             optimization,
             uncertainty: solve_time.saturating_sub(optimization),
         },
+        bootstrap: None,
     };
     Ok(calibration)
 }

@@ -34,12 +34,14 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bootstrap;
 pub mod calibrate;
 pub mod compare;
 pub mod observations;
 pub mod result;
 pub mod synthetic;
 
+pub use bootstrap::{Bootstrap, BootstrapOptions, BootstrapStart, add_bootstrap, bootstrap};
 pub use calib_core::{
     CalibrationError, CalibrationOptions, FocalInit, JsonFile, OutlierView, PointKind,
     default_solver_options,

@@ -2,6 +2,7 @@
 //! (`docs/formats.md`). The result is a serde type: [`Calibration::to_json`] writes it and
 //! [`Calibration::from_json`] reads it back.
 
+use crate::bootstrap::Bootstrap;
 use calib_core::ImageSize;
 use calib_core::init::StartMethod;
 pub use calib_core::result::ResultFormatError;
@@ -66,6 +67,9 @@ pub struct Calibration {
     pub elapsed: Duration,
     /// Wall time per stage.
     pub stage_times: StageTimes,
+    /// The view bootstrap's standard deviations, when one was run ([`crate::add_bootstrap`],
+    /// `calib single --bootstrap N`); `None` otherwise.
+    pub bootstrap: Option<Bootstrap>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -106,6 +110,29 @@ struct CalibrationJson {
     views: Vec<ViewResult>,
     skipped_views: Vec<SkippedView>,
     solver: SolverReport,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    bootstrap: Option<BootstrapJson>,
+}
+
+/// The `bootstrap` object of result files: the camera's standard deviations over view resamples
+/// in the shape of `camera.std`.
+#[derive(Serialize, Deserialize)]
+struct BootstrapJson {
+    resamples: usize,
+    failed: usize,
+    seed: u64,
+    elapsed_seconds: f64,
+    std: BootstrapStdJson,
+}
+
+#[derive(Serialize, Deserialize)]
+struct BootstrapStdJson {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    distortion: serde_json::Map<String, serde_json::Value>,
+    dist_coeffs: Vec<f64>,
 }
 
 impl Calibration {
@@ -167,6 +194,27 @@ impl Calibration {
             views: self.views.clone(),
             skipped_views: self.skipped_views.clone(),
             solver: self.solver.clone(),
+            bootstrap: self.bootstrap.as_ref().map(|b| BootstrapJson {
+                resamples: b.resamples,
+                failed: b.failed,
+                seed: b.seed,
+                elapsed_seconds: b.elapsed_seconds,
+                std: BootstrapStdJson {
+                    fx: b.intrinsics_std[0],
+                    fy: b.intrinsics_std[1],
+                    cx: b.intrinsics_std[2],
+                    cy: b.intrinsics_std[3],
+                    distortion: self
+                        .camera
+                        .model
+                        .distortion_names()
+                        .iter()
+                        .zip(&b.distortion_std)
+                        .map(|(name, s)| (name.to_string(), serde_json::json!(s)))
+                        .collect(),
+                    dist_coeffs: b.distortion_std.clone(),
+                },
+            }),
         }
     }
 
@@ -209,6 +257,14 @@ impl Calibration {
             solver: j.solver,
             elapsed: duration_from_seconds(j.elapsed_seconds),
             stage_times: j.stage_seconds,
+            bootstrap: j.bootstrap.map(|b| Bootstrap {
+                resamples: b.resamples,
+                failed: b.failed,
+                seed: b.seed,
+                intrinsics_std: [b.std.fx, b.std.fy, b.std.cx, b.std.cy],
+                distortion_std: b.std.dist_coeffs,
+                elapsed_seconds: b.elapsed_seconds,
+            }),
         })
     }
 
@@ -266,6 +322,9 @@ impl Calibration {
                 "  skipped view {} ({}): {}",
                 skipped.index, skipped.name, skipped.reason
             );
+        }
+        if let Some(b) = &self.bootstrap {
+            out.push_str(&b.summary(self));
         }
         write_warnings(&mut out, "  ", &self.warnings);
         let _ = writeln!(
