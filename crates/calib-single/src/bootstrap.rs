@@ -162,7 +162,7 @@ impl Bootstrap {
             }
             (_, true) => {
                 message = format!(
-                    "the distortion coefficients {}'s bootstrap spreads exceed {limit:.0}x their linearized sigmas",
+                    "the bootstrap spreads of the distortion coefficients {} exceed {limit:.0}x their linearized sigmas",
                     coefficients.join(", ")
                 )
             }
