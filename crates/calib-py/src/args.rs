@@ -66,6 +66,7 @@ extractors! {
     square: f64 = "a number",
     alpha: Option<f64> = "a number or None",
     max_iterations: i64 = "an int",
+    bootstrap: Option<i64> = "an int or None",
     threads: i64 = "an int",
     min_views: i64 = "an int",
     names: Option<Vec<String>> = "a list of strings or None",

@@ -3,7 +3,7 @@
 use crate::calibration_error;
 use crate::convert::{self, flat_out, mat3_out, row_out};
 use crate::options::{self, Common};
-use calib_single::{Calibration, Observations, View, calibrate};
+use calib_single::{BootstrapOptions, Calibration, Observations, View, add_bootstrap, calibrate};
 use camera_model::CameraModel;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
@@ -111,7 +111,12 @@ pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyR
 /// leave out repeated views (with a warning). ``compute_std``: compute the standard deviations
 /// (``std``, ``pose_std``; all zero with ``False``, which is slightly faster). ``names``: one
 /// string per view (file names, say), used in messages, warnings and ``to_json()``.
-/// ``threads``: 0 uses every core; the result does not depend on it.
+/// ``threads``: 0 uses every core; the result does not depend on it. ``bootstrap``: also
+/// estimate the standard deviations by a view bootstrap of that many resamples (10 to 10000;
+/// about as many calibrations): ``bootstrap_std``, and a ``bootstrap-spread`` warning where they
+/// exceed the linearized ``std`` three times. Worth it for "rational8" and "thin-prism12", whose
+/// linearized principal-point sigmas are several times too small (``calib single --bootstrap N``,
+/// docs/camera-model.md).
 ///
 /// Returns a :class:`CameraCalibration`, which unpacks as ``rms, K, dist, rvecs, tvecs``:
 /// ``rvecs`` / ``tvecs`` are the board-to-camera poses as cv2's (``X_cam = R(rvec) X_board +
@@ -124,7 +129,7 @@ pub fn view_names(names: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyR
     object_points, image_points, image_size, model=None, fix=None, *, K=None, dist=None,
     reject_outliers=false, outlier_threshold=5.0, loss=None, loss_scale=1.0, rotation=None,
     skip_bad_views=false, drop_duplicate_views=false, compute_std=true, max_iterations=500,
-    threads=0, names=None
+    threads=0, names=None, bootstrap=None
 ))]
 #[allow(non_snake_case, clippy::too_many_arguments)]
 fn calibrate_camera(
@@ -147,7 +152,11 @@ fn calibrate_camera(
     #[pyo3(from_py_with = crate::args::max_iterations)] max_iterations: i64,
     #[pyo3(from_py_with = crate::args::threads)] threads: i64,
     names: Option<&Bound<'_, PyAny>>,
+    #[pyo3(from_py_with = crate::args::bootstrap)] bootstrap: Option<i64>,
 ) -> PyResult<CameraCalibration> {
+    let resamples = bootstrap
+        .map(|n| options::count(n, "bootstrap", 10, 10_000))
+        .transpose()?;
     let common = Common {
         reject_outliers,
         outlier_threshold,
@@ -184,13 +193,25 @@ fn calibrate_camera(
     let given_names: Option<Vec<String>> = names
         .is_some_and(|n| !n.is_none())
         .then(|| observations.views.iter().map(|v| v.name.clone()).collect());
-    let result = py.detach(|| calibrate(&observations, &opts)).map_err(|e| {
-        calibration_error(with_view_name(
-            e.to_string(),
-            "view",
-            given_names.as_deref(),
-        ))
-    })?;
+    let result = py
+        .detach(|| {
+            let mut result = calibrate(&observations, &opts)?;
+            if let Some(resamples) = resamples {
+                let settings = BootstrapOptions {
+                    resamples,
+                    ..BootstrapOptions::default()
+                };
+                add_bootstrap(&mut result, &observations, &opts, &settings)?;
+            }
+            Ok::<_, calib_core::CalibrationError>(result)
+        })
+        .map_err(|e| {
+            calibration_error(with_view_name(
+                e.to_string(),
+                "view",
+                given_names.as_deref(),
+            ))
+        })?;
     crate::emit_warnings(py, &result.warnings)?;
     Ok(CameraCalibration { inner: result })
 }
@@ -266,6 +287,18 @@ impl CameraCalibration {
         let mut v = self.inner.intrinsics_std.to_vec();
         v.extend_from_slice(&self.inner.distortion_std);
         flat_out(py, &v)
+    }
+
+    /// The view bootstrap's standard deviations in ``std``'s order (``param_names``), or
+    /// ``None`` without ``bootstrap=N``: each parameter's spread over N calibrations of resampled
+    /// views, about the estimate (docs/camera-model.md).
+    #[getter]
+    fn bootstrap_std<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.inner.bootstrap.as_ref().map(|b| {
+            let mut v = b.intrinsics_std.to_vec();
+            v.extend_from_slice(&b.distortion_std);
+            flat_out(py, &v)
+        })
     }
 
     /// Names of the intrinsic parameters: fx, fy, cx, cy and the model's coefficients.

@@ -293,3 +293,22 @@ def test_warnings_reach_pythons_warnings_module():
         warnings.filterwarnings("ignore", r"\[poor-coverage\]", calib.CalibrationWarning)
         result = calib.calibrate_camera(obj, img, size)
     assert [w.code for w in result.warnings] == ["poor-coverage"]
+
+
+def test_bootstrap_is_the_commands(calib_cli):
+    """bootstrap=N: the same resamples and refits as `calib single --bootstrap N` (seeded), so
+    the same file and the same `bootstrap_std`; without it `bootstrap_std` is None. Bad counts
+    name the argument."""
+    obj, img, size = single_arrays("sourishg1/left.json")
+    result = calib.calibrate_camera(obj, img, size, model="rational8", bootstrap=12)
+    expected = calib_cli("single", DATA / "sourishg1/left.json", "--model", "rational8",
+                         "--no-outlier-rejection", "--bootstrap", "12")
+    assert strip(json.loads(result.to_json())) == strip(expected)
+    assert result.bootstrap_std.shape == result.std.shape
+    std = expected["bootstrap"]["std"]
+    assert list(result.bootstrap_std[:4]) == [std["fx"], std["fy"], std["cx"], std["cy"]]
+    assert calib.calibrate_camera(obj, img, size).bootstrap_std is None
+    with pytest.raises(ValueError, match="bootstrap: expected 10 to 10000, got 5"):
+        calib.calibrate_camera(obj, img, size, bootstrap=5)
+    with pytest.raises(TypeError, match="bootstrap: expected an int or None"):
+        calib.calibrate_camera(obj, img, size, bootstrap="100")

@@ -80,6 +80,10 @@ class CameraCalibration:
     def std(self) -> npt.NDArray[np.float64]:
         """Standard deviations of ``param_names``, (4 + N,); zero for fixed parameters."""
     @property
+    def bootstrap_std(self) -> Optional[npt.NDArray[np.float64]]:
+        """The view bootstrap's standard deviations in ``std``'s order, or None without
+        ``bootstrap=N``."""
+    @property
     def param_names(self) -> list[str]:
         """fx, fy, cx, cy and the model's coefficient names."""
     @property
@@ -367,9 +371,11 @@ def calibrate_camera(
     max_iterations: int = 500,
     threads: int = 0,
     names: Optional[Sequence[str]] = None,
+    bootstrap: Optional[int] = None,
 ) -> CameraCalibration:
     """Calibrates one camera, like cv2.calibrateCamera (every point fitted unless
-    ``reject_outliers``). Raises CalibrationError, ValueError, TypeError."""
+    ``reject_outliers``); ``bootstrap=N`` adds view-bootstrap sigmas (``bootstrap_std``).
+    Raises CalibrationError, ValueError, TypeError."""
 
 def compare_models(
     object_points: Iterable[Points],
