@@ -195,3 +195,35 @@ fn bootstrap_refusals_are_typed_errors() {
     assert!(unchanged.bootstrap.is_none());
     assert_eq!(unchanged.to_json(), result.to_json());
 }
+
+/// Six views: the bootstrap runs, and a `poorly-determined` warning says it is rough (a resample
+/// holds about 4 distinct views); twenty views: no such warning.
+#[test]
+fn a_bootstrap_over_few_views_is_warned_rough() {
+    let rough = |views: usize| {
+        let config = SyntheticConfig {
+            views,
+            ..Default::default()
+        };
+        let set = generate(&config).unwrap();
+        let options = CalibrationOptions::default();
+        let mut result = calibrate(&set.observations, &options).unwrap();
+        let settings = BootstrapOptions {
+            resamples: 10,
+            ..Default::default()
+        };
+        add_bootstrap(&mut result, &set.observations, &options, &settings).unwrap();
+        result
+            .warnings
+            .iter()
+            .find(|w| w.message.contains("view bootstrap over"))
+            .map(|w| (w.code.name(), w.message.clone()))
+    };
+    let (code, message) = rough(6).expect("no warning over 6 views");
+    assert_eq!(code, "poorly-determined");
+    assert!(
+        message.contains("over 6 views is rough") && message.contains("about 4 distinct"),
+        "{message}"
+    );
+    assert!(rough(20).is_none());
+}
