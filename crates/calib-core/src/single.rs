@@ -560,6 +560,46 @@ fn simpler_model(model: CameraModel) -> Option<CameraModel> {
     }
 }
 
+/// The rational models' stagnation rule: 20 accepted steps that together lower the cost by at
+/// most 1e-5 relative end the solve (`SolverOptions::stagnation_window`). Runaways along the
+/// rational valley: such steps change the RMS by 5e-6 relative, far below the cost's own
+/// sampling noise (sqrt(2 / residuals), 2.6% for 1500 points). 20 rather than 50: on the
+/// 90-problem population of `calib-single/tests/models.rs` as many problems at the truth
+/// start's minimum (rational8 84, thin-prism12 76 instead of 75, none at the iteration limit
+/// instead of 2) in 19% and 30% fewer iterations; 10 lost 3 rational8 problems
+/// (docs/benchmarks-models.md).
+fn stop_stagnating(solver: &mut lm_solver::SolverOptions) {
+    solver.stagnation_window = 20;
+    solver.stagnation_tolerance = 1e-5;
+}
+
+/// Adapts `solver` to the joint stage of a stereo pair or rig whose cameras have the lens
+/// `models` (started from each camera's own minimum): with a rational model (`rational8`,
+/// `thin-prism12`) and the default damping ([`DampingPolicy::hybrid`]; a damping chosen by the
+/// user is kept) the joint solve gets the stagnation rule of the single-camera solve
+/// ([`PreparedCamera::solve_options`]); otherwise nothing changes.
+///
+/// Without it the joint stage crawled along the rational valley to the iteration limit (500
+/// iterations and an `iteration-limit` warning) in 36 of 195 stereo pairs of narrow rational8
+/// cameras and 14 of 196 rigs mixing `rational8` with polynomial cameras; with it in 4 and 0.
+/// Where it ends a crawl the RMS stays higher than at the crawl's end, by a median of 1e-8 px
+/// (pairs) and 1e-9 px (rigs), 95th percentile 4e-4 and 8e-5 px, at most 1.1e-3 and 5.1e-3 px
+/// (docs/calib-stereo.md and docs/calib-rig.md, `tests/models_population.rs` of both crates).
+/// The single-camera stage's warm damping ([`DampingPolicy::marquardt_warm`]) was tried here
+/// as well: it ended 102 of 195 pairs in a higher minimum than the default damping and 28 in a
+/// lower one.
+pub fn joint_stage_solver(
+    models: impl IntoIterator<Item = CameraModel>,
+    solver: &mut lm_solver::SolverOptions,
+) {
+    let rational = models
+        .into_iter()
+        .any(|m| matches!(m, CameraModel::Rational8 | CameraModel::ThinPrism12));
+    if rational && solver.damping == DampingPolicy::hybrid() {
+        stop_stagnating(solver);
+    }
+}
+
 impl PreparedCamera {
     /// For a many-term model (rational, thin prism), replaces the start by the solution of the
     /// same views with `brown-conrady5` (the extra terms zero): from the closed form, the extra
@@ -625,7 +665,8 @@ impl PreparedCamera {
     /// bundled cameras and the 90-problem population of `tests/models.rs`
     /// (`docs/benchmarks-models.md`). Both rational models also get the stagnation rule (20
     /// accepted steps that together lower the cost by at most 1e-5 relative end the solve,
-    /// `SolverOptions::stagnation_window`). A damping chosen by the user is kept. After a warm start
+    /// `SolverOptions::stagnation_window`; the joint stage of a pair or rig gets it too,
+    /// [`joint_stage_solver`]). A damping chosen by the user is kept. After a warm start
     /// the outlier rejection also runs with every point in the first solve when the run with
     /// the suspects left out fails or rejects points
     /// ([`crate::SolveOptions::recheck_without_suspects`]).
@@ -640,14 +681,7 @@ impl PreparedCamera {
             if self.initial.model == CameraModel::ThinPrism12 {
                 options.solver.damping_search = 3;
             }
-            // Runaways along the rational valley: 20 accepted steps that together lower the
-            // cost by 1e-5 relative change the RMS by 5e-6 relative, far below the cost's own
-            // sampling noise (sqrt(2 / residuals), 2.6% for 1500 points). 20 rather than 50: on
-            // the 90-problem population as many problems at the truth start's minimum (rational8
-            // 84, thin-prism12 76 instead of 75, none at the iteration limit instead of 2) in 19%
-            // and 30% fewer iterations; 10 lost 3 rational8 problems (docs/benchmarks-models.md).
-            options.solver.stagnation_window = 20;
-            options.solver.stagnation_tolerance = 1e-5;
+            stop_stagnating(&mut options.solver);
         }
         options
     }

@@ -246,6 +246,48 @@ pub fn true_camera(config: &SyntheticConfig) -> Result<AnyCamera, SyntheticError
         .map_err(|e| SyntheticError::Invalid(e.to_string()))
 }
 
+/// A fisheye problem of the population users produce, for convergence sweeps: a
+/// `kannala-brandt4` camera with the diagonal field of view `fov_deg` (degrees; its focal length
+/// `half-diagonal / (fov / 2)` in radians), a 1280x960 image, the principal point up to 20 px
+/// off the centre, `fy/fx` within 1%, small coefficients (`k1` within 0.05), a 9x6 board of
+/// 30-unit squares out to the edge of the field, 3 to 25 views, noise 0.1 to 1.5 px, the largest
+/// tilt between 8 and 60 degrees.
+pub fn fisheye_population(seed: u64, fov_deg: f64) -> SyntheticConfig {
+    let mut rng = Rng::new(0xF15E_0000 + seed);
+    let size = ImageSize::new(1280, 960);
+    let f = size.half_diagonal() / (fov_deg.to_radians() / 2.0);
+    let (cx, cy) = size.centre();
+    SyntheticConfig {
+        image_size: size,
+        model: CameraModel::KannalaBrandt4,
+        intrinsics: Intrinsics::new(
+            f,
+            f * rng.range(0.99, 1.01),
+            cx + rng.range(-20.0, 20.0),
+            cy + rng.range(-20.0, 20.0),
+        ),
+        distortion: fisheye_distortion(&mut rng),
+        board_cols: 9,
+        board_rows: 6,
+        square: 30.0,
+        views: 3 + (rng.uniform() * 23.0) as usize,
+        noise_px: rng.range(0.1, 1.5),
+        max_tilt_deg: rng.range(8.0, 60.0),
+        seed: 9_000_000 + seed,
+    }
+}
+
+/// Small random `kannala-brandt4` coefficients (`k1` within 0.05, `k2` 0.01, `k3` 0.003, `k4`
+/// 0.0005), as [`fisheye_population`] draws them.
+pub fn fisheye_distortion(rng: &mut Rng) -> Vec<f64> {
+    vec![
+        rng.range(-0.05, 0.05),
+        rng.range(-0.01, 0.01),
+        rng.range(-0.003, 0.003),
+        rng.range(-0.0005, 0.0005),
+    ]
+}
+
 /// A problem of the population users produce, for convergence sweeps: 3 to 40 views, the largest
 /// board tilt drawn per problem between 5 and 60 degrees (each view's tilt uniform up to it, so
 /// many views are nearly frontal), noise 0.05 to 1 px, a 7x5, 9x6 or 12x9 board, focal lengths

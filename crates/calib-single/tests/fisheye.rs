@@ -3,42 +3,10 @@
 //! 60 to 190 degrees, boards spread out to the edge of the field, 3 to 25 views, noise up to
 //! 1.5 px, tilts down to 8 degrees.
 
-use calib_core::synthetic::SyntheticConfig;
+use calib_core::synthetic::fisheye_population;
 use calib_single::synthetic::generate;
-use calib_single::{CalibrationOptions, ImageSize, calibrate};
-use camera_model::{CameraModel, Intrinsics};
-use lm_solver::Rng;
-
-/// A random fisheye problem: diagonal field of view `fov_deg`, 1280x960 image.
-fn fisheye(seed: u64, fov_deg: f64) -> SyntheticConfig {
-    let mut rng = Rng::new(0xF15E_0000 + seed);
-    let size = ImageSize::new(1280, 960);
-    let f = size.half_diagonal() / (fov_deg.to_radians() / 2.0);
-    let (cx, cy) = size.centre();
-    SyntheticConfig {
-        image_size: size,
-        model: CameraModel::KannalaBrandt4,
-        intrinsics: Intrinsics::new(
-            f,
-            f * rng.range(0.99, 1.01),
-            cx + rng.range(-20.0, 20.0),
-            cy + rng.range(-20.0, 20.0),
-        ),
-        distortion: vec![
-            rng.range(-0.05, 0.05),
-            rng.range(-0.01, 0.01),
-            rng.range(-0.003, 0.003),
-            rng.range(-0.0005, 0.0005),
-        ],
-        board_cols: 9,
-        board_rows: 6,
-        square: 30.0,
-        views: 3 + (rng.uniform() * 23.0) as usize,
-        noise_px: rng.range(0.1, 1.5),
-        max_tilt_deg: rng.range(8.0, 60.0),
-        seed: 9_000_000 + seed,
-    }
-}
+use calib_single::{CalibrationOptions, calibrate};
+use camera_model::CameraModel;
 
 #[test]
 fn fisheye_lenses_converge_from_60_to_190_degrees() {
@@ -49,7 +17,7 @@ fn fisheye_lenses_converge_from_60_to_190_degrees() {
     for seed in 0..problems {
         // Fields of view spread over 60 to 190 degrees, in an order unrelated to the seed.
         let fov = 60.0 + 130.0 * ((seed * 37) % problems) as f64 / (problems - 1) as f64;
-        let config = fisheye(seed, fov);
+        let config = fisheye_population(seed, fov);
         let set = generate(&config).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         // The widest angle off the axis that the boards reach.
         for (view, pose) in set.observations.views.iter().zip(&set.poses) {
@@ -86,7 +54,7 @@ fn fisheye_lenses_converge_from_60_to_190_degrees() {
 
 #[test]
 fn noise_free_fisheye_data_recovers_the_camera() {
-    let mut config = fisheye(3, 160.0);
+    let mut config = fisheye_population(3, 160.0);
     config.noise_px = 0.0;
     let set = generate(&config).unwrap();
     let mut options = CalibrationOptions::default();
@@ -109,7 +77,7 @@ fn noise_free_fisheye_data_recovers_the_camera() {
 /// noise-free fit.
 #[test]
 fn a_lens_model_too_simple_for_the_lens_is_called_a_misfit() {
-    let mut config = fisheye(5, 150.0);
+    let mut config = fisheye_population(5, 150.0);
     config.views = 20;
     config.noise_px = 0.3;
     config.max_tilt_deg = 45.0;

@@ -363,6 +363,11 @@ fn calibrate_pairs(
     let mut solve = SolveOptions::default();
     solve.rotation = options.rotation;
     solve.solver = options.solver.clone();
+    // The joint stage starts at each camera's own minimum: a warm start.
+    calib_core::single::joint_stage_solver(
+        problem.cameras.iter().map(|c| c.model()),
+        &mut solve.solver,
+    );
     solve.loss = options.loss;
     solve.outliers = options.outliers;
     let solution = calib_core::solve(&problem, &solve)
