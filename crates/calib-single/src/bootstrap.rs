@@ -112,71 +112,32 @@ impl Bootstrap {
     /// `None` when no parameter does.
     pub fn warning(&self, calibration: &Calibration) -> Option<Warning> {
         let names = camera_param_names(calibration.camera.model);
-        let linear = calibration
+        let free: Vec<bool> = names
+            .iter()
+            .map(|name| !calibration.fixed_parameters.iter().any(|f| f == name))
+            .collect();
+        let linear: Vec<f64> = calibration
             .intrinsics_std
             .iter()
-            .chain(&calibration.distortion_std);
-        let spread = self.intrinsics_std.iter().chain(&self.distortion_std);
-        // A zero linearized sigma of a free parameter (no covariance) counts as exceeded.
-        let over: Vec<(usize, &str, f64)> = names
-            .iter()
-            .zip(linear.zip(spread))
-            .enumerate()
-            .filter(|(_, (name, _))| !calibration.fixed_parameters.iter().any(|f| f == *name))
-            .filter(|(_, (_, (l, b)))| **b > SPREAD_WARNING_RATIO * **l && **b > 0.0)
-            .map(|(i, (name, (l, b)))| (i, *name, b / l))
+            .chain(&calibration.distortion_std)
+            .copied()
             .collect();
-        if over.is_empty() {
-            return None;
-        }
-        let mut intrinsics: Vec<&(usize, &str, f64)> = over.iter().filter(|p| p.0 < 4).collect();
-        intrinsics.sort_by(|a, b| b.2.total_cmp(&a.2));
-        let ratio = |r: f64| {
-            if r.is_finite() && r < 1e4 {
-                format!("{r:.0}x")
-            } else {
-                "far beyond".into()
-            }
+        let spread: Vec<f64> = self
+            .intrinsics_std
+            .iter()
+            .chain(&self.distortion_std)
+            .copied()
+            .collect();
+        let clause = SpreadClause {
+            prefix: "",
+            coefficient_owner: "",
+            names: &names,
+            listed: 4,
+            free: &free,
+            linear: &linear,
+            spread: &spread,
         };
-        let text: Vec<String> = intrinsics
-            .iter()
-            .enumerate()
-            .map(|(k, (_, name, r))| match k {
-                0 => format!(
-                    "{name}'s bootstrap spread is {} its linearized sigma",
-                    ratio(*r)
-                ),
-                _ => format!("{name}'s {}", ratio(*r)),
-            })
-            .collect();
-        let coefficients: Vec<&str> = over.iter().filter(|p| p.0 >= 4).map(|p| p.1).collect();
-        let limit = SPREAD_WARNING_RATIO;
-        let mut message = text.join(", ");
-        match (coefficients.len(), text.is_empty()) {
-            (0, _) => {}
-            (1, true) => {
-                message = format!(
-                    "the distortion coefficient {}'s bootstrap spread exceeds {limit:.0}x its linearized sigma",
-                    coefficients[0]
-                )
-            }
-            (_, true) => {
-                message = format!(
-                    "the bootstrap spreads of the distortion coefficients {} exceed {limit:.0}x their linearized sigmas",
-                    coefficients.join(", ")
-                )
-            }
-            (_, false) => message.push_str(&format!(
-                " (and the distortion coefficients {} beyond {limit:.0}x)",
-                coefficients.join(", ")
-            )),
-        }
-        Some(Warning::new(
-            WarningCode::BootstrapSpread,
-            format!(
-                "{message}: the linearized sigmas of this fit are not honest; quote the bootstrap's standard deviations (`bootstrap` in the result), or use a model with fewer terms"
-            ),
-        ))
+        spread_warning(&[clause.text()?])
     }
 
     /// The summary lines: the bootstrap's +- 3 sigma next to the linearized ones.
@@ -204,6 +165,130 @@ impl Bootstrap {
             three(&calibration.distortion_std),
         )
     }
+}
+
+/// One part of a `bootstrap-spread` warning: the parameters of one camera (or of a rig) whose
+/// bootstrap standard deviation exceeds [`SPREAD_WARNING_RATIO`] times the linearized one.
+/// Shared by the single-camera and the stereo bootstrap (`calib_stereo::bootstrap`).
+#[derive(Debug, Clone, Copy)]
+pub struct SpreadClause<'a> {
+    /// Put before each parameter's name: `""` for a single camera, `"left "` for a stereo
+    /// pair's camera.
+    pub prefix: &'a str,
+    /// Put before "distortion coefficient(s)": `""`, or `"left camera's "`.
+    pub coefficient_owner: &'a str,
+    /// The parameters' names (`fx, fy, cx, cy` and the coefficients, or a rig's six).
+    pub names: &'a [&'a str],
+    /// How many leading parameters are named with their ratio (4 for a camera: the intrinsics;
+    /// the rest are distortion coefficients, named without it).
+    pub listed: usize,
+    /// Whether each parameter is estimated (held parameters never warn).
+    pub free: &'a [bool],
+    /// Linearized standard deviations, in `names`' order.
+    pub linear: &'a [f64],
+    /// Bootstrap standard deviations, in `names`' order.
+    pub spread: &'a [f64],
+}
+
+impl SpreadClause<'_> {
+    /// The clause, e.g. "cx's bootstrap spread is 7x its linearized sigma, cy's 5x (and the
+    /// distortion coefficients k4, k5 beyond 3x)", worst ratio first; `None` when no free
+    /// parameter exceeds [`SPREAD_WARNING_RATIO`]. A zero linearized sigma of a free parameter
+    /// (no covariance) counts as exceeded.
+    pub fn text(&self) -> Option<String> {
+        let over: Vec<(usize, &str, f64)> = self
+            .names
+            .iter()
+            .zip(self.linear.iter().zip(self.spread))
+            .enumerate()
+            .filter(|(i, _)| self.free.get(*i).copied().unwrap_or(false))
+            .filter(|(_, (_, (l, b)))| **b > SPREAD_WARNING_RATIO * **l && **b > 0.0)
+            .map(|(i, (name, (l, b)))| (i, *name, b / l))
+            .collect();
+        if over.is_empty() {
+            return None;
+        }
+        let mut listed: Vec<&(usize, &str, f64)> =
+            over.iter().filter(|p| p.0 < self.listed).collect();
+        listed.sort_by(|a, b| b.2.total_cmp(&a.2));
+        let ratio = |r: f64| {
+            if r.is_finite() && r < 1e4 {
+                format!("{r:.0}x")
+            } else {
+                "far beyond".into()
+            }
+        };
+        let prefix = self.prefix;
+        let text: Vec<String> = listed
+            .iter()
+            .enumerate()
+            .map(|(k, (_, name, r))| match k {
+                0 => format!(
+                    "{prefix}{name}'s bootstrap spread is {} its linearized sigma",
+                    ratio(*r)
+                ),
+                _ => format!("{prefix}{name}'s {}", ratio(*r)),
+            })
+            .collect();
+        let coefficients: Vec<&str> = over
+            .iter()
+            .filter(|p| p.0 >= self.listed)
+            .map(|p| p.1)
+            .collect();
+        let limit = SPREAD_WARNING_RATIO;
+        let owner = self.coefficient_owner;
+        let mut message = text.join(", ");
+        match (coefficients.len(), text.is_empty()) {
+            (0, _) => {}
+            (1, true) => {
+                message = format!(
+                    "the {owner}distortion coefficient {}'s bootstrap spread exceeds {limit:.0}x its linearized sigma",
+                    coefficients[0]
+                )
+            }
+            (_, true) => {
+                message = format!(
+                    "the bootstrap spreads of the {owner}distortion coefficients {} exceed {limit:.0}x their linearized sigmas",
+                    coefficients.join(", ")
+                )
+            }
+            (_, false) => message.push_str(&format!(
+                " (and the {owner}distortion coefficients {} beyond {limit:.0}x)",
+                coefficients.join(", ")
+            )),
+        }
+        Some(message)
+    }
+}
+
+/// The `bootstrap-spread` warning made of `clauses` (joined by "; "), with the advice; `None`
+/// for no clause.
+pub fn spread_warning(clauses: &[String]) -> Option<Warning> {
+    if clauses.is_empty() {
+        return None;
+    }
+    Some(Warning::new(
+        WarningCode::BootstrapSpread,
+        format!(
+            "{}: the linearized sigmas of this fit are not honest; quote the bootstrap's standard deviations (`bootstrap` in the result), or use a model with fewer terms",
+            clauses.join("; ")
+        ),
+    ))
+}
+
+/// The `poorly-determined` warning that a bootstrap (`what`: "view bootstrap", "pair
+/// bootstrap") over `n` resampled `items` ("views", "pairs") is rough, when `n` is below
+/// [`ROUGH_BELOW_VIEWS`].
+pub fn rough_warning(n: usize, what: &str, items: &str) -> Option<Warning> {
+    (n < ROUGH_BELOW_VIEWS).then(|| {
+        Warning::new(
+            WarningCode::PoorlyDetermined,
+            format!(
+                "the {what} over {n} {items} is rough: a resample of {n} {items} holds about {:.0} distinct ones, so its standard deviations are themselves uncertain well beyond the 7% of 100 resamples; add {items} (at least {ROUGH_BELOW_VIEWS})",
+                distinct_views(n)
+            ),
+        )
+    })
 }
 
 /// The view bootstrap of `calibration`, the result of [`crate::calibrate`] on `observations`
@@ -373,10 +458,7 @@ pub fn bootstrap(
         .chain(calibration.camera.distortion.iter().copied())
         .collect();
     let std: Vec<f64> = (0..model.num_params())
-        .map(|j| {
-            let (mean, spread) = trimmed_spread(good.iter().map(|p| p[j]).collect());
-            spread.hypot(mean - estimate[j])
-        })
+        .map(|j| spread_about(good.iter().map(|p| p[j]).collect(), estimate[j]))
         .collect();
     Ok(Bootstrap {
         resamples: settings.resamples,
@@ -402,16 +484,11 @@ pub fn add_bootstrap(
 ) -> Result<(), CalibrationError> {
     let result = bootstrap(observations, options, calibration, settings)?;
     calibration.warnings.extend(result.warning(calibration));
-    let views = calibration.views.len();
-    if views < ROUGH_BELOW_VIEWS {
-        calibration.warnings.push(Warning::new(
-            WarningCode::PoorlyDetermined,
-            format!(
-                "the view bootstrap over {views} views is rough: a resample of {views} views holds about {:.0} distinct ones, so its standard deviations are themselves uncertain well beyond the 7% of 100 resamples; add views (at least {ROUGH_BELOW_VIEWS})",
-                distinct_views(views)
-            ),
-        ));
-    }
+    calibration.warnings.extend(rough_warning(
+        calibration.views.len(),
+        "view bootstrap",
+        "views",
+    ));
     calibration.bootstrap = Some(result);
     Ok(())
 }
@@ -427,6 +504,15 @@ pub const ROUGH_BELOW_VIEWS: usize = 10;
 fn distinct_views(n: usize) -> f64 {
     let n = n as f64;
     n * (1.0 - (1.0 - 1.0 / n).powf(n))
+}
+
+/// The bootstrap standard deviation of one parameter from its refits `values` (at least 3)
+/// about the calibration's `estimate`: `sqrt(s^2 + (m - estimate)^2)`, with `m` and `s` the
+/// trimmed mean and standard deviation of the values ([`TRIM_FRACTION`] dropped at each end, `s`
+/// scaled to estimate a normal standard deviation). In the values' units.
+pub fn spread_about(values: Vec<f64>, estimate: f64) -> f64 {
+    let (mean, spread) = trimmed_spread(values);
+    spread.hypot(mean - estimate)
 }
 
 /// Fraction of the refits left out at each end before the spread is taken.
@@ -488,9 +574,10 @@ fn upper_tail(z: f64) -> f64 {
     0.5 * poly * (-x * x).exp()
 }
 
-/// How many times each of `n` views is drawn in resample `b` of `seed`: `n` draws with
-/// replacement, again until at least [`MIN_VIEWS`] distinct views are drawn (`n >= MIN_VIEWS`).
-fn draw(n: usize, seed: u64, b: usize) -> Vec<usize> {
+/// How many times each of `n` views (or stereo pairs) is drawn in resample `b` of `seed`: `n`
+/// draws with replacement, again until at least [`MIN_VIEWS`] distinct ones are drawn (`n >=
+/// MIN_VIEWS`). The same on every platform and whatever the thread count.
+pub fn draw(n: usize, seed: u64, b: usize) -> Vec<usize> {
     let mut rng = Rng::new(seed.wrapping_mul(0x0001_0000_0001).wrapping_add(b as u64));
     loop {
         let mut counts = vec![0usize; n];
