@@ -70,6 +70,19 @@ pub struct StereoArgs {
     /// How the initial rig is computed from the single-camera poses.
     #[arg(long, value_enum, default_value_t = RigMethod::LeastSquares)]
     pub rig_init: RigMethod,
+    /// Also estimate the standard deviations of both cameras and of the rig with a pair
+    /// bootstrap: N times, draw as many pairs as were used (with replacement, seeded: the same
+    /// every run), calibrate them as the pairs were (no outlier rejection: the rejected points
+    /// left out), and report each parameter's spread about the estimate (`bootstrap` in the
+    /// JSON, printed next to the linearized sigmas; a `bootstrap-spread` warning where it exceeds
+    /// them 3x). Worth it for rational8 and thin-prism12, whose linearized principal-point and
+    /// rig-rotation sigmas are several times too small (docs/calib-stereo.md). Costs about N
+    /// stereo calibrations (10 to 10000)
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(10..=10000))]
+    pub bootstrap: Option<u32>,
+    /// Seed of --bootstrap's resampling (default 1): another seed draws other resamples
+    #[arg(long, value_name = "SEED", requires = "bootstrap")]
+    pub bootstrap_seed: Option<u64>,
 }
 
 fn intrinsics(text: &str, what: &str) -> Result<Intrinsics, Failure> {
@@ -329,8 +342,20 @@ pub fn run(args: &StereoArgs) -> Result<(), Failure> {
         .map(String::as_str)
         .collect();
     let result = calibrate_and_report(&source, &inputs, &args.output, skipped.as_ref(), || {
-        calibrate_stereo(&observations, &options)
-            .map_err(|e| Failure(format!("{source}: {}", observations.describe(&e))))
+        let mut result = calibrate_stereo(&observations, &options)
+            .map_err(|e| Failure(format!("{source}: {}", observations.describe(&e))))?;
+        if let Some(n) = args.bootstrap {
+            let mut settings = calib_stereo::BootstrapOptions {
+                resamples: n as usize,
+                ..Default::default()
+            };
+            if let Some(seed) = args.bootstrap_seed {
+                settings.seed = seed;
+            }
+            calib_stereo::add_bootstrap(&mut result, &observations, &options, &settings)
+                .map_err(|e| Failure(format!("{source}: {e}")))?;
+        }
+        Ok(result)
     })?;
     if let Some(dir) = &args.output.report {
         let input = calib_export::ReportInput::stereo(&result, Some(&observations))?;

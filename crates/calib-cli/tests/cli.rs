@@ -1476,6 +1476,73 @@ fn negative_lists_of_numbers_are_values() {
     );
 }
 
+/// `calib stereo --bootstrap N [--bootstrap-seed S]`: the `bootstrap` object in the JSON (both
+/// cameras and the rig), the summary's lines, another seed another spread; N below 10, or
+/// --bootstrap-seed alone, refused.
+#[test]
+fn stereo_bootstrap_is_opt_in_and_checked() {
+    let obs = temp("stereo-bootstrap-obs.json");
+    run_ok(
+        calib()
+            .args(["synth", "stereo", "--views", "8", "-o"])
+            .arg(&obs),
+    );
+    let out = temp("stereo-bootstrap-result.json");
+    let read = |path: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let run = run_ok(
+        calib()
+            .args(["stereo", "--bootstrap", "10"])
+            .arg(&obs)
+            .arg("-o")
+            .arg(&out),
+    );
+    let summary = String::from_utf8(run.stdout).unwrap();
+    assert!(
+        summary.contains("pair bootstrap (10 resamples)"),
+        "{summary}"
+    );
+    let json = read(&out);
+    assert_eq!(json["bootstrap"]["resamples"], 10);
+    assert_eq!(json["bootstrap"]["seed"], 1);
+    let cx = json["bootstrap"]["left"]["std"]["cx"].as_f64().unwrap();
+    assert!(cx > 0.0);
+    assert!(json["bootstrap"]["right"]["std"]["fy"].as_f64().unwrap() > 0.0);
+    assert!(json["bootstrap"]["rig_std"][3].as_f64().unwrap() > 0.0);
+    assert!(json["bootstrap"]["baseline_std"].as_f64().unwrap() > 0.0);
+    // Eight pairs: the bootstrap is warned rough.
+    let warnings = json["warnings"].to_string();
+    assert!(
+        warnings.contains("pair bootstrap over 8 pairs"),
+        "{warnings}"
+    );
+    run_ok(
+        calib()
+            .args(["stereo", "--bootstrap", "10", "--bootstrap-seed", "7", "-q"])
+            .arg(&obs)
+            .arg("-o")
+            .arg(&out),
+    );
+    let json = read(&out);
+    assert_eq!(json["bootstrap"]["seed"], 7);
+    assert_ne!(json["bootstrap"]["left"]["std"]["cx"].as_f64().unwrap(), cx);
+    // Without the option the result has no bootstrap.
+    run_ok(
+        calib()
+            .arg("stereo")
+            .arg(&obs)
+            .arg("-q")
+            .arg("-o")
+            .arg(&out),
+    );
+    assert!(read(&out).get("bootstrap").is_none());
+    for args in [&["--bootstrap", "9"][..], &["--bootstrap-seed", "3"][..]] {
+        let run = calib().arg("stereo").arg(&obs).args(args).output().unwrap();
+        assert!(!run.status.success(), "{args:?}");
+    }
+}
+
 /// `--bootstrap N`: the `bootstrap` object in the JSON and the summary's lines next to the
 /// linearized sigmas; N below 10, or --bootstrap-warm alone, or with --compare-models, refused.
 #[test]

@@ -41,7 +41,7 @@ pub fn calibrate_stereo(
     let (mut kept, mut skipped) = select_pairs(observations, options)?;
     let mut warnings = Vec::new();
     loop {
-        match calibrate_pairs(observations, &kept, (left_size, right_size), options) {
+        match calibrate_pairs(observations, &kept, (left_size, right_size), options, false) {
             Ok(mut result) => {
                 skipped.sort_by_key(|s| s.index);
                 result.skipped_pairs = skipped;
@@ -174,12 +174,30 @@ const MAX_RIG_DISAGREEMENT_DEG: f64 = 30.0;
 /// A baseline shorter than this fraction of the median board distance gets a warning.
 const SHORT_BASELINE: f64 = 0.01;
 
-/// The stereo calibration of the pairs `kept`.
+/// A bootstrap refit (`crate::bootstrap`): the stereo calibration of the pairs `kept` of
+/// `observations` (a pair listed `m` times weighs `m`) as [`calibrate_stereo`] calibrates its
+/// pairs, without the pair checks (repeated pairs are meant), the covariance and the cameras'
+/// diagnostics.
+pub(crate) fn refit_pairs(
+    observations: &StereoObservations,
+    kept: &[usize],
+    options: &StereoOptions,
+) -> Result<StereoCalibration, StereoError> {
+    let sizes = observations.sizes()?;
+    calibrate_pairs(observations, kept, sizes, options, true).map_err(|failure| match failure {
+        PairsFailure::Error(e) | PairsFailure::BadPairs(e, _) => e,
+        PairsFailure::Duplicates(_) => StereoError::Bootstrap("repeated pairs".into()),
+    })
+}
+
+/// The stereo calibration of the pairs `kept`; a bootstrap refit (`refit`) skips the pair
+/// checks, the covariance and the cameras' diagnostics.
 fn calibrate_pairs(
     observations: &StereoObservations,
     kept: &[usize],
     (left_size, right_size): (calib_core::ImageSize, calib_core::ImageSize),
     options: &StereoOptions,
+    refit: bool,
 ) -> Result<StereoCalibration, PairsFailure> {
     let prepare = |side: Side, camera_options: &CalibrationOptions, size| {
         let t = Instant::now();
@@ -204,6 +222,7 @@ fn calibrate_pairs(
     // Pair-level checks on the homographies: a pair whose two views are the same image, pairs
     // repeating earlier ones.
     let identical: Vec<usize> = (0..kept.len())
+        .filter(|_| !refit)
         .filter(|&k| {
             let pair = &observations.pairs[kept[k]];
             same_view(
@@ -221,7 +240,9 @@ fn calibrate_pairs(
             identical.into_iter().map(|k| (k, None)).collect(),
         ));
     }
-    let duplicates = {
+    let duplicates = if refit {
+        Vec::new()
+    } else {
         let side_views = |side| -> Vec<&View> {
             kept.iter()
                 .map(|&i| observations.pairs[i].view(side))
@@ -245,6 +266,7 @@ fn calibrate_pairs(
         solve.rotation = options.rotation;
         solve.outliers = options.outliers;
         solve.solver.num_threads = options.solver.num_threads;
+        solve.camera_warnings = !refit;
         let (spec, solution) = prepared
             .solve_for_start(&side.to_string(), &solve)
             .map_err(|e| {
@@ -274,7 +296,7 @@ fn calibrate_pairs(
         let between = disagreements[0].max(disagreements[1]);
         disagreements = vec![between; 2];
     }
-    if !mismatched.is_empty() {
+    if !mismatched.is_empty() && !refit {
         let pairs = mismatched
             .iter()
             .map(|&k| (kept[k], disagreements[k].to_degrees()))
@@ -370,6 +392,8 @@ fn calibrate_pairs(
     );
     solve.loss = options.loss;
     solve.outliers = options.outliers;
+    solve.compute_uncertainty = !refit;
+    solve.camera_warnings = !refit;
     let solution = calib_core::solve(&problem, &solve)
         .map_err(|e| engine_failure(e, 2, kept.len(), joint_error))?;
     let joint_done = Instant::now();
@@ -694,5 +718,6 @@ fn assemble(
         solver: solution.report,
         elapsed: std::time::Duration::ZERO,
         stage_times: [times[0], times[1], joint, times[2].saturating_sub(joint)],
+        bootstrap: None,
     })
 }

@@ -110,6 +110,10 @@ pub enum StereoError {
     /// A non-finite value came out of the optimization.
     #[error("the optimization diverged ({0})")]
     Diverged(String),
+    /// The pair bootstrap (`crate::bootstrap`) cannot estimate a spread: too few resamples or
+    /// pairs, a calibration of other observations, or too few refits that succeed.
+    #[error("bootstrap: {0}")]
+    Bootstrap(String),
 }
 
 impl StereoError {

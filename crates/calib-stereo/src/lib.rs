@@ -28,6 +28,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bootstrap;
 pub mod calibrate;
 pub mod error;
 pub mod observations;
@@ -35,9 +36,11 @@ pub mod options;
 pub mod result;
 pub mod synthetic;
 
+pub use bootstrap::{CameraSpread, StereoBootstrap, add_bootstrap, bootstrap};
 pub use calib_core::rig;
 pub use calib_core::rig::RigInit;
 pub use calib_core::{JsonFile, ResultFormatError};
+pub use calib_single::BootstrapOptions;
 pub use calibrate::{calibrate_stereo, stereo_problem};
 pub use error::{Side, StereoError};
 pub use observations::{StereoObservations, StereoPair};

@@ -2,6 +2,7 @@
 //! is a serde type: [`StereoCalibration::to_json`] writes it and [`StereoCalibration::from_json`]
 //! reads it back.
 
+use crate::bootstrap::{CameraSpread, StereoBootstrap};
 use calib_core::init::StartMethod;
 pub use calib_core::result::CameraEstimate;
 use calib_core::result::{
@@ -130,6 +131,9 @@ pub struct StereoCalibration {
     /// Wall time of the single-camera calibrations (left, right), the joint optimization and the
     /// covariance with result assembly.
     pub stage_times: [Duration; 4],
+    /// The pair bootstrap's standard deviations, when one was run ([`crate::add_bootstrap`],
+    /// `calib stereo --bootstrap N`); `None` otherwise.
+    pub bootstrap: Option<StereoBootstrap>,
 }
 
 fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
@@ -202,6 +206,68 @@ struct StereoJson {
     pairs: Vec<PairResult>,
     skipped_pairs: Vec<SkippedPair>,
     solver: SolverReport,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    bootstrap: Option<BootstrapJson>,
+}
+
+/// The `bootstrap` object of stereo result files: each camera's standard deviations over pair
+/// resamples in the shape of its `std`, and the rig's in that of `rig_std`.
+#[derive(Serialize, Deserialize)]
+struct BootstrapJson {
+    resamples: usize,
+    failed: usize,
+    seed: u64,
+    elapsed_seconds: f64,
+    left: CameraSpreadJson,
+    right: CameraSpreadJson,
+    rig_std: [f64; 6],
+    baseline_std: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+struct CameraSpreadJson {
+    std: CameraStdJson,
+}
+
+#[derive(Serialize, Deserialize)]
+struct CameraStdJson {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    distortion: serde_json::Map<String, serde_json::Value>,
+    dist_coeffs: Vec<f64>,
+}
+
+impl CameraSpreadJson {
+    fn new(spread: &CameraSpread, estimate: &CameraEstimate) -> Self {
+        let s = &spread.intrinsics_std;
+        CameraSpreadJson {
+            std: CameraStdJson {
+                fx: s[0],
+                fy: s[1],
+                cx: s[2],
+                cy: s[3],
+                distortion: estimate
+                    .camera
+                    .model
+                    .distortion_names()
+                    .iter()
+                    .zip(&spread.distortion_std)
+                    .map(|(name, s)| (name.to_string(), serde_json::json!(s)))
+                    .collect(),
+                dist_coeffs: spread.distortion_std.clone(),
+            },
+        }
+    }
+
+    fn spread(self) -> CameraSpread {
+        let s = self.std;
+        CameraSpread {
+            intrinsics_std: [s.fx, s.fy, s.cx, s.cy],
+            distortion_std: s.dist_coeffs,
+        }
+    }
 }
 
 impl StereoCalibration {
@@ -252,6 +318,16 @@ impl StereoCalibration {
             pairs: self.pairs.clone(),
             skipped_pairs: self.skipped_pairs.clone(),
             solver: self.solver.clone(),
+            bootstrap: self.bootstrap.as_ref().map(|b| BootstrapJson {
+                resamples: b.resamples,
+                failed: b.failed,
+                seed: b.seed,
+                elapsed_seconds: b.elapsed_seconds,
+                left: CameraSpreadJson::new(&b.left, &self.left),
+                right: CameraSpreadJson::new(&b.right, &self.right),
+                rig_std: b.rig_std,
+                baseline_std: b.baseline_std,
+            }),
         }
     }
 
@@ -297,6 +373,16 @@ impl StereoCalibration {
                 j.stage_seconds.joint_optimization,
                 j.stage_seconds.uncertainty,
             ],
+            bootstrap: j.bootstrap.map(|b| StereoBootstrap {
+                resamples: b.resamples,
+                failed: b.failed,
+                seed: b.seed,
+                left: b.left.spread(),
+                right: b.right.spread(),
+                rig_std: b.rig_std,
+                baseline_std: b.baseline_std,
+                elapsed_seconds: b.elapsed_seconds,
+            }),
         })
     }
 
@@ -361,6 +447,9 @@ impl StereoCalibration {
         }
         for skipped in &self.skipped_pairs {
             let _ = writeln!(out, "  skipped pair {}: {}", skipped.index, skipped.reason);
+        }
+        if let Some(b) = &self.bootstrap {
+            out.push_str(&b.summary(self));
         }
         write_warnings(&mut out, "  ", &self.warnings);
         let _ = writeln!(
