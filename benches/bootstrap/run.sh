@@ -31,7 +31,8 @@
 #
 # Corner files and results go to benches/bootstrap/out/, the table to
 # benches/bootstrap/out/summary.md (summary-stereo.md with --stereo). Takes about 6 minutes on
-# two cores with the defaults; --stereo --no-bootstrap a few seconds.
+# two cores with the defaults; --stereo took 37 minutes on two cores shared with other work
+# (rational8 nearly all of it), --stereo --no-bootstrap a few seconds.
 set -euo pipefail
 
 ORIG_ARGS=("$@")
