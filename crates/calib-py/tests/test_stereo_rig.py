@@ -42,6 +42,28 @@ def test_stereo_bit_for_bit_with_the_calib_command(calib_cli, name):
         assert v["covers_image"] == stored[camera]["validity"]["covers_image"]
 
 
+def test_stereo_bootstrap_is_the_commands(calib_cli):
+    """bootstrap=N: the same resamples and refits as `calib stereo --bootstrap N` (seeded), so
+    the same file and the same bootstrap sigmas; without it they are None. Bad counts name the
+    argument."""
+    obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
+    result = calib.stereo_calibrate(obj, left, right, size, bootstrap=10)
+    expected = calib_cli("stereo", DATA / "sourishg1/stereo.json", "--no-outlier-rejection",
+                         "--bootstrap", "10")
+    assert strip(json.loads(result.to_json())) == strip(expected)
+    b = expected["bootstrap"]
+    assert result.bootstrap_std1.shape == result.std1.shape
+    assert list(result.bootstrap_std1[:4]) == [b["left"]["std"][p] for p in ["fx", "fy", "cx", "cy"]]
+    assert list(result.bootstrap_std2[4:]) == b["right"]["std"]["dist_coeffs"]
+    assert list(result.bootstrap_rig_std) == b["rig_std"]
+    assert result.bootstrap_baseline_std == b["baseline_std"]
+    plain = calib.stereo_calibrate(obj, left, right, size)
+    assert plain.bootstrap_std1 is None and plain.bootstrap_rig_std is None
+    assert plain.bootstrap_baseline_std is None
+    with pytest.raises(ValueError, match="bootstrap: expected 10 to 10000, got 5"):
+        calib.stereo_calibrate(obj, left, right, size, bootstrap=5)
+
+
 def test_stereo_options_and_guesses(calib_cli):
     obj, left, right, size = stereo_arrays("sourishg1/stereo.json")
     first = calib.stereo_calibrate(obj, left, right, size)
