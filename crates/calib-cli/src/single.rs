@@ -328,9 +328,12 @@ pub struct SingleArgs {
     /// Start each --bootstrap refit at the calibration's solution instead of calibrating the
     /// resample from the start as the views were: no faster, and on rational8 and thin-prism12
     /// the refits stay near the calibration's minimum and the spread comes out too small (kept
-    /// for comparison; docs/camera-model.md)
-    #[arg(long, requires = "bootstrap")]
+    /// for comparison; docs/camera-model.md). Hidden from --help: it is the worse choice
+    #[arg(long, requires = "bootstrap", hide = true)]
     pub bootstrap_warm: bool,
+    /// Seed of --bootstrap's resampling (default 1): another seed draws other resamples
+    #[arg(long, value_name = "SEED", requires = "bootstrap")]
+    pub bootstrap_seed: Option<u64>,
 }
 
 /// The observation file named by `inputs`, or the observations detected in the images `inputs`
@@ -490,7 +493,7 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
         let mut result = calibrate(&observations, &options)
             .map_err(|e| Failure(format!("{source}: {}", observations.describe(&e))))?;
         if let Some(n) = args.bootstrap {
-            let settings = calib_single::BootstrapOptions {
+            let mut settings = calib_single::BootstrapOptions {
                 resamples: n as usize,
                 start: if args.bootstrap_warm {
                     calib_single::BootstrapStart::Solution
@@ -499,6 +502,9 @@ pub fn run(args: &SingleArgs) -> Result<(), Failure> {
                 },
                 ..Default::default()
             };
+            if let Some(seed) = args.bootstrap_seed {
+                settings.seed = seed;
+            }
             calib_single::add_bootstrap(&mut result, &observations, &options, &settings)
                 .map_err(|e| Failure(format!("{source}: {e}")))?;
         }

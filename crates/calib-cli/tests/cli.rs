@@ -1544,7 +1544,8 @@ fn stereo_bootstrap_is_opt_in_and_checked() {
 }
 
 /// `--bootstrap N`: the `bootstrap` object in the JSON and the summary's lines next to the
-/// linearized sigmas; N below 10, or --bootstrap-warm alone, or with --compare-models, refused.
+/// linearized sigmas; --bootstrap-seed draws other resamples; N below 10, --bootstrap-warm or
+/// --bootstrap-seed alone, or --bootstrap with --compare-models, refused.
 #[test]
 fn bootstrap_is_opt_in_and_checked() {
     let obs = temp("bootstrap-obs.json");
@@ -1569,7 +1570,21 @@ fn bootstrap_is_opt_in_and_checked() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(json["bootstrap"]["resamples"], 10);
-    assert!(json["bootstrap"]["std"]["fx"].as_f64().unwrap() > 0.0);
+    assert_eq!(json["bootstrap"]["seed"], 1);
+    let fx = json["bootstrap"]["std"]["fx"].as_f64().unwrap();
+    assert!(fx > 0.0);
+    // Another seed draws other resamples.
+    run_ok(
+        calib()
+            .args(["single", "--bootstrap", "10", "--bootstrap-seed", "7", "-q"])
+            .arg(&obs)
+            .arg("-o")
+            .arg(&out),
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(json["bootstrap"]["seed"], 7);
+    assert_ne!(json["bootstrap"]["std"]["fx"].as_f64().unwrap(), fx);
     // Without the option the result has no bootstrap.
     run_ok(
         calib()
@@ -1585,6 +1600,7 @@ fn bootstrap_is_opt_in_and_checked() {
     for args in [
         &["--bootstrap", "9"][..],
         &["--bootstrap-warm"][..],
+        &["--bootstrap-seed", "3"][..],
         &["--bootstrap", "10", "--compare-models"][..],
     ] {
         let run = calib().arg("single").arg(&obs).args(args).output().unwrap();

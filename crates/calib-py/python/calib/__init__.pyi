@@ -175,6 +175,20 @@ class StereoCalibration:
     def rig_std(self) -> npt.NDArray[np.float64]:
         """Standard deviations of ``rig_params``, (6,)."""
     @property
+    def bootstrap_std1(self) -> Optional[npt.NDArray[np.float64]]:
+        """The pair bootstrap's standard deviations of camera 1 in ``std1``'s order, or None
+        without ``bootstrap=N``."""
+    @property
+    def bootstrap_std2(self) -> Optional[npt.NDArray[np.float64]]:
+        """The pair bootstrap's standard deviations of camera 2 in ``std2``'s order, or None."""
+    @property
+    def bootstrap_rig_std(self) -> Optional[npt.NDArray[np.float64]]:
+        """The pair bootstrap's standard deviations of ``rig_params`` (``rig_std``'s order and
+        units), or None."""
+    @property
+    def bootstrap_baseline_std(self) -> Optional[float]:
+        """The pair bootstrap's standard deviation of the baseline (board units), or None."""
+    @property
     def baseline(self) -> float: ...
     @property
     def rotation(self) -> str: ...
@@ -432,9 +446,12 @@ def stereo_calibrate(
     max_iterations: int = 500,
     threads: int = 0,
     names: Optional[Sequence[str]] = None,
+    bootstrap: Optional[int] = None,
 ) -> StereoCalibration:
     """Calibrates a stereo pair (both cameras, the rig, every pair's pose), like
-    cv2.stereoCalibrate without CALIB_FIX_INTRINSIC."""
+    cv2.stereoCalibrate without CALIB_FIX_INTRINSIC; ``bootstrap=N`` adds pair-bootstrap
+    sigmas (``bootstrap_std1``, ``bootstrap_std2``, ``bootstrap_rig_std``,
+    ``bootstrap_baseline_std``)."""
 
 def calibrate_rig(
     image_sizes: Sequence[ImageSize],
