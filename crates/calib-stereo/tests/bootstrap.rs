@@ -102,7 +102,7 @@ fn warned(r: &StereoCalibration) -> bool {
 /// Twelve rational8 pairs: over both cameras' principal points (48 errors) the linearized
 /// sigmas are far too small and the bootstrap's cover the errors. Over 30 seeds
 /// (`benches/bootstrap/run.sh --stereo`) the RMS of z for the four is 3.9 to 7.1 with the
-/// linearized sigmas and 0.6 to 0.9 with a bootstrap of 100 resamples. The bounds: 48 z values
+/// linearized sigmas and 0.77 to 1.02 with a bootstrap of 100 resamples. The bounds: 48 z values
 /// give an RMS within 20% of its expectation (relative standard error 1 / sqrt(96) = 0.10,
 /// twice that for 95%), 30 resamples add 13% to each sigma (1 / sqrt(58)) and the valley's
 /// errors are heavier-tailed than a normal's: the bootstrap's must lie in 0.5 to 1.5, the
