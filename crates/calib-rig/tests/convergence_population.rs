@@ -8,7 +8,7 @@
 use calib_core::SolveOptions;
 use calib_rig::synthetic::{generate_rig, population};
 use calib_rig::{RigOptions, calibrate_rig, rig_problem};
-use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
+use calib_test_support::{Outcome, ended, judge, reference_from_truth, sweep};
 
 fn problem(seed: u64) -> Outcome {
     let config = population(seed);
@@ -45,14 +45,10 @@ fn problem(seed: u64) -> Outcome {
         .fold((0, 0.0), |(n, s), e| (n + e.used, s + e.sum_sq));
     let reference_rms = (sum / used as f64).sqrt();
     let ours = calibrate_rig(&set.observations, &ours).map(|r| {
-        let converged = r.solver.termination.is_converged();
-        (
+        ended(
             r.rms,
-            if converged {
-                Ok(())
-            } else {
-                Err(r.solver.termination)
-            },
+            r.solver.termination.is_converged(),
+            r.solver.termination,
         )
     });
     judge(&what, ours, reference_rms, 1e-5)

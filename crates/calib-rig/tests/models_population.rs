@@ -11,7 +11,7 @@ use calib_core::data::ImageSize;
 use calib_core::synthetic::fisheye_distortion;
 use calib_rig::synthetic::{SyntheticRigConfig, generate_rig, population};
 use calib_rig::{RigOptions, calibrate_rig, rig_problem};
-use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
+use calib_test_support::{Outcome, ended, judge, reference_from_truth, sweep};
 use camera_model::{CameraModel, Intrinsics};
 use lm_solver::Rng;
 
@@ -94,14 +94,10 @@ fn outcome(seed: u64, config: &SyntheticRigConfig) -> (Outcome, f64) {
         .fold((0, 0.0), |(n, s), e| (n + e.used, s + e.sum_sq));
     let reference_rms = (sum / used as f64).sqrt();
     let result = calibrate_rig(&set.observations, &ours).map(|r| {
-        let converged = r.solver.termination.is_converged();
-        (
+        ended(
             r.rms,
-            if converged {
-                Ok(())
-            } else {
-                Err(r.solver.termination)
-            },
+            r.solver.termination.is_converged(),
+            r.solver.termination,
         )
     });
     let excess = result.as_ref().map_or(0.0, |r| r.0 - reference_rms);

@@ -7,7 +7,7 @@
 
 use calib_single::synthetic::generate;
 use calib_single::{CalibrationOptions, calibrate};
-use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
+use calib_test_support::{Outcome, ended, judge, reference_from_truth, sweep};
 
 fn problem(seed: u64) -> Outcome {
     let config = calib_core::synthetic::population(seed);
@@ -28,14 +28,10 @@ fn problem(seed: u64) -> Outcome {
     };
     // The same points must be in use for the RMS to compare: rms_all_points.
     let ours = calibrate(&set.observations, &options).map(|r| {
-        let converged = r.solver.termination.is_converged();
-        (
+        ended(
             r.rms_all_points,
-            if converged {
-                Ok(())
-            } else {
-                Err(r.solver.termination)
-            },
+            r.solver.termination.is_converged(),
+            r.solver.termination,
         )
     });
     judge(&what, ours, reference.rms_all_points, 1e-5)

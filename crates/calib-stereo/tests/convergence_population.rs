@@ -6,7 +6,7 @@
 
 use calib_stereo::synthetic::{generate_stereo, population};
 use calib_stereo::{StereoOptions, calibrate_stereo};
-use calib_test_support::{Outcome, judge, reference_from_truth, sweep};
+use calib_test_support::{Outcome, ended, judge, reference_from_truth, sweep};
 
 fn problem(seed: u64) -> Outcome {
     let config = population(seed);
@@ -33,14 +33,10 @@ fn problem(seed: u64) -> Outcome {
             Err(outcome) => return outcome,
         };
     let ours = calibrate_stereo(&set.observations, &options).map(|r| {
-        let converged = r.solver.termination.is_converged();
-        (
+        ended(
             r.rms_all_points,
-            if converged {
-                Ok(())
-            } else {
-                Err(r.solver.termination)
-            },
+            r.solver.termination.is_converged(),
+            r.solver.termination,
         )
     });
     judge(&what, ours, reference.rms_all_points, 1e-5)

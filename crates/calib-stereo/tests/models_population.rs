@@ -8,7 +8,7 @@
 use calib_core::synthetic::{default_distortion, fisheye_distortion, fisheye_population};
 use calib_stereo::synthetic::{SyntheticStereoConfig, generate_stereo, population};
 use calib_stereo::{StereoOptions, calibrate_stereo};
-use calib_test_support::{Outcome, judge, sweep};
+use calib_test_support::{Outcome, ended, judge, sweep};
 use camera_model::{CameraModel, EulerXyz, Intrinsics, Pose, RotationParameterization};
 use lm_solver::Rng;
 use nalgebra::Vector3;
@@ -99,14 +99,10 @@ fn outcome(seed: u64, config: &SyntheticStereoConfig) -> Outcome {
         config.left.noise_px
     );
     let ours = calibrate_stereo(&set.observations, &options).map(|r| {
-        let converged = r.solver.termination.is_converged();
-        (
+        ended(
             r.rms_all_points,
-            if converged {
-                Ok(())
-            } else {
-                Err(r.solver.termination)
-            },
+            r.solver.termination.is_converged(),
+            r.solver.termination,
         )
     });
     judge(&what, ours, reference.rms_all_points, 1e-5)

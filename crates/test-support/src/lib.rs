@@ -10,4 +10,4 @@ pub mod mutate;
 pub mod sweep;
 
 pub use mutate::{all_finite, flip_byte, replace_number};
-pub use sweep::{Outcome, Tally, judge, reference_from_truth, sweep};
+pub use sweep::{Outcome, Tally, ended, judge, reference_from_truth, sweep};

@@ -142,6 +142,12 @@ pub fn reference_from_truth<R, E: std::fmt::Display>(
     }
 }
 
+/// A finished calibration in the form [`judge`] takes: its RMS with `Ok(())` when its solve
+/// converged, or with `Err(termination)` (the reason it stopped) when it did not.
+pub fn ended<T>(rms: f64, converged: bool, termination: T) -> (f64, Result<(), T>) {
+    (rms, if converged { Ok(()) } else { Err(termination) })
+}
+
 /// Classifies a calibration from the default start against the reference (the truth start):
 /// refused on an error, iteration limit when it did not converge, above when its RMS exceeds
 /// `reference_rms + tolerance` (both over the same points), else at the minimum. `what`
@@ -187,6 +193,8 @@ mod tests {
 
     #[test]
     fn judge_classifies_and_the_tally_counts_every_problem() {
+        assert_eq!(ended(0.5, true, "limit"), (0.5, Ok(())));
+        assert_eq!(ended(0.5, false, "limit"), (0.5, Err("limit")));
         let ok = |rms: f64| Ok::<_, String>((rms, Ok::<(), String>(())));
         assert_eq!(judge("p", ok(1.0), 1.0, 1e-5), Outcome::AtMinimum);
         assert_eq!(judge("p", ok(0.9), 1.0, 1e-5), Outcome::AtMinimum);
