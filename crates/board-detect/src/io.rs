@@ -270,11 +270,16 @@ pub struct ImageResult {
 impl ImageResult {
     /// The file name (last path component).
     pub fn file_name(&self) -> String {
-        self.path
-            .file_name()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| self.path.display().to_string())
+        file_name(&self.path)
     }
+}
+
+/// The file name (last component) of `path`, as observation files name images; the path as
+/// given when it has none (`..`).
+pub fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
 }
 
 /// The names the observation files and messages use for `results`: each file's name, or its

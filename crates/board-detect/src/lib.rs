@@ -276,8 +276,8 @@ pub fn detect(
 
 mod io;
 pub use io::{
-    ImageResult, decode_gray, detect_file, detect_files, detect_image, image_names, load_gray,
-    load_upright, observations_json, rig_observations_json, rig_observations_json_matched,
-    stereo_observations_json, upright_dimensions,
+    ImageResult, decode_gray, detect_file, detect_files, detect_image, file_name, image_names,
+    load_gray, load_upright, observations_json, rig_observations_json,
+    rig_observations_json_matched, stereo_observations_json, upright_dimensions,
 };
 pub mod synth;

@@ -459,13 +459,13 @@ fn stereo_observations_by_number(
                 r_paths.push(right[r].clone());
             }
             (Some(l), None) => unpaired.push(serde_json::json!({
-                "left_image": file_name(&left[l]),
+                "left_image": board_detect::file_name(&left[l]),
                 "right_image": null,
                 "reason": format!("no right image numbered {number}"),
             })),
             (None, Some(r)) => unpaired.push(serde_json::json!({
                 "left_image": null,
-                "right_image": file_name(&right[r]),
+                "right_image": board_detect::file_name(&right[r]),
                 "reason": format!("no left image numbered {number}"),
             })),
             (None, None) => {}
@@ -484,13 +484,6 @@ fn stereo_observations_by_number(
     }
     require_views(&file, frames.len(), true)?;
     Ok((all, file))
-}
-
-/// The file name (last component) of `path`, as the observation files name images.
-fn file_name(path: &Path) -> String {
-    path.file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string())
 }
 
 /// Camera `c`'s numbers in `frames`, for a message: "1 to 29, 29 images", or the few there are.
