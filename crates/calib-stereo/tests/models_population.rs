@@ -59,14 +59,23 @@ fn fisheye_pair(seed: u64, fov_deg: f64) -> SyntheticStereoConfig {
     }
 }
 
-/// A pair of the stereo population with `rational8` cameras (the default synthetic
-/// coefficients, the right camera's scaled by 0.8): narrow lenses (fx 400 to 1500 px), whose
-/// k1..k6 the views do not determine.
-fn rational_pair(seed: u64) -> SyntheticStereoConfig {
+/// The rational model of [`rational_pair`]: `rational8`, or `thin-prism12` with
+/// `CALIB_MODELS_RATIONAL=thin-prism12`.
+fn rational_model() -> CameraModel {
+    match std::env::var("CALIB_MODELS_RATIONAL").as_deref() {
+        Ok("thin-prism12") => CameraModel::ThinPrism12,
+        _ => CameraModel::Rational8,
+    }
+}
+
+/// A pair of the stereo population with cameras of the rational `model` (the default synthetic
+/// coefficients, the right camera's scaled by 0.8): narrow lenses, whose k1..k6 the views do not
+/// determine.
+fn rational_pair(seed: u64, model: CameraModel) -> SyntheticStereoConfig {
     let mut config = population(seed);
-    config.left.model = CameraModel::Rational8;
-    config.left.distortion = default_distortion(CameraModel::Rational8);
-    config.right_model = CameraModel::Rational8;
+    config.left.model = model;
+    config.left.distortion = default_distortion(model);
+    config.right_model = model;
     config.right_distortion = config.left.distortion.iter().map(|d| d * 0.8).collect();
     config
 }
@@ -127,20 +136,23 @@ fn fisheye_pairs_from_60_to_190_degrees_reach_the_true_minimum() {
 /// Pairs of narrow `rational8` cameras: the joint stage does not crawl along the rational
 /// valley to the iteration limit. Before the stagnation rule 10 of these 60 pairs did (36 of
 /// 195 over 200 seeds), now 2 (4 of 195: walks that keep lowering the cost for 500
-/// iterations). Where the rule ends a crawl the RMS is higher than at the crawl's
-/// end by a median of 1e-8 px (95th percentile 4e-4 px, at most 1.1e-3 px; docs/calib-stereo.md).
-/// Higher minima of the valley (the truth start's lower by more than 1e-5 px) are counted, not
-/// failed: single cameras with undetermined rational terms end in them as well
-/// (docs/camera-model.md, Convergence).
+/// iterations); the bound is 5% of the pairs. `thin-prism12` pairs
+/// (`CALIB_MODELS_RATIONAL=thin-prism12`): 37 of 100 before, 9 now; the bound 15%. Where the
+/// rule ends a crawl the RMS is higher than at the crawl's end by a median of 1e-8 px (95th
+/// percentile 4e-4 px, at most 1.1e-3 px; docs/calib-stereo.md). Higher minima of the valley
+/// (the truth start's lower by more than 1e-5 px) are counted, not failed: single cameras with
+/// undetermined rational terms end in them as well (docs/camera-model.md, Convergence).
 #[test]
 fn rational8_pairs_do_not_crawl_to_the_iteration_limit() {
-    let n = problems();
-    let all = sweep(n, |seed| outcome(seed, &rational_pair(seed)));
-    println!("{}", all.report("rational8 pairs"));
-    assert!(
-        all.iteration_limit.len() <= 3,
-        "{}",
-        all.report("rational8 pairs")
-    );
-    assert!(all.refused.len() <= 2, "{}", all.report("rational8 pairs"));
+    let n = problems() as usize;
+    let model = rational_model();
+    let all = sweep(n as u64, |seed| outcome(seed, &rational_pair(seed, model)));
+    let what = format!("{} pairs", model.name());
+    println!("{}", all.report(&what));
+    let limit = match model {
+        CameraModel::ThinPrism12 => 3.max(n * 15 / 100),
+        _ => 3.max(n / 20),
+    };
+    assert!(all.iteration_limit.len() <= limit, "{}", all.report(&what));
+    assert!(all.refused.len() <= 2.max(n / 30), "{}", all.report(&what));
 }
