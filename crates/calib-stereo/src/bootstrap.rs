@@ -21,8 +21,8 @@ use calib_core::result::CameraEstimate;
 use calib_core::single::camera_param_names;
 use calib_core::warnings::Warning;
 use calib_single::bootstrap::{
-    BootstrapOptions, BootstrapStart, MIN_RESAMPLES, MIN_VIEWS, SpreadClause, draw, rough_warning,
-    spread_about, spread_warning,
+    BootstrapOptions, BootstrapStart, MIN_RESAMPLES, MIN_VIEWS, SpreadClause, draw, failed_warning,
+    rough_warning, spread_about, spread_warning,
 };
 use camera_model::{AxisAngle, RotationKind, RotationParameterization};
 use rayon::prelude::*;
@@ -343,6 +343,11 @@ pub fn add_bootstrap(
         calibration.pairs.len(),
         "pair bootstrap",
         "pairs",
+    ));
+    calibration.warnings.extend(failed_warning(
+        result.failed,
+        result.resamples,
+        "pair bootstrap",
     ));
     calibration.bootstrap = Some(result);
     Ok(())
